@@ -1,0 +1,143 @@
+"""Synchronous event bus that isolates plugin faults.
+
+Messages published on a stream are delivered, depth first and in subscription order,
+to every subscriber of that stream; a message a subscriber publishes while handling
+is delivered before the next subscriber sees the original one. That keeps runs
+deterministic.
+
+When a component raises while handling a message, the fault is counted, reported as
+an ``error`` :class:`Diagnostic` with code ``plugin_fault`` naming the component and
+the agent, and the component's fault policy decides what happens next:
+
+``disable_agent`` (default)
+    The component gets no more messages of that agent; its other agents, and every
+    other component, carry on.
+``restart``
+    The component forgets the agent (``reset(agent)``) and carries on; after
+    ``max_restarts`` faults for the same agent it is disabled for that agent.
+``disable``
+    The component gets no more messages at all.
+``raise``
+    The exception stops the run (for debugging).
+"""
+from __future__ import annotations
+
+import logging
+import traceback
+from collections import defaultdict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Literal
+
+from .components import Component
+from .messages import Diagnostic, Message
+from .stats import RunStats
+
+log = logging.getLogger("firenav.bus")
+
+FaultPolicy = Literal["disable_agent", "restart", "disable", "raise"]
+FAULT_POLICIES: tuple[str, ...] = ("disable_agent", "restart", "disable", "raise")
+
+
+@dataclass
+class Subscription:
+    component: Component
+    policy: FaultPolicy = "disable_agent"
+    agents: frozenset[str] | None = None  # None: every agent
+    max_restarts: int = 3
+
+
+@dataclass
+class Fault:
+    """One exception raised by a component."""
+
+    component: str
+    agent: str
+    stream: str
+    t: float
+    error: str
+    where: str
+    action: str
+
+
+@dataclass
+class Bus:
+    stats: RunStats = field(default_factory=RunStats)
+    _subs: dict[str, list[Subscription]] = field(default_factory=lambda: defaultdict(list))
+    _disabled: set[tuple[str, str | None]] = field(default_factory=set)
+    _restarts: dict[tuple[str, str], int] = field(default_factory=lambda: defaultdict(int))
+    faults: list[Fault] = field(default_factory=list)
+    #: Called for every published message (recorders and monitors), before subscribers.
+    taps: list[Callable[[str, Message], None]] = field(default_factory=list)
+
+    def subscribe(self, stream: str, sub: Subscription) -> None:
+        self._subs[stream].append(sub)
+
+    def subscribers(self, stream: str) -> list[Subscription]:
+        return list(self._subs.get(stream, ()))
+
+    def publish(self, stream: str, msg: Message) -> None:
+        """Deliver ``msg`` to everyone subscribed to ``stream``."""
+        self.stats.seen(stream)
+        for tap in self.taps:
+            tap(stream, msg)
+        for sub in self._subs.get(stream, ()):
+            self.deliver(sub, stream, msg)
+
+    def deliver(self, sub: Subscription, stream: str, msg: Message) -> None:
+        cid = sub.component.ctx.id
+        agent = msg.agent
+        if sub.agents is not None and agent and agent not in sub.agents:
+            return
+        if (cid, None) in self._disabled or (cid, agent) in self._disabled:
+            self.stats.count(cid, "skipped_after_fault")
+            return
+        try:
+            sub.component.handle(stream, msg)
+        except Exception as exc:
+            if sub.policy == "raise":
+                raise
+            self.report_fault(sub, stream, msg, exc)
+
+    def call(self, sub: Subscription, what: str, fn: Callable[[], None], t: float = 0.0) -> None:
+        """Run a lifecycle call (start/finish) under the same fault policy."""
+        try:
+            fn()
+        except Exception as exc:
+            if sub.policy == "raise":
+                raise
+            self.report_fault(sub, what, Diagnostic(t=t, component="", level="", code="", text=""), exc)
+
+    def report_fault(self, sub: Subscription, stream: str, msg: Message, exc: Exception) -> None:
+        cid, agent = sub.component.ctx.id, msg.agent
+        frame = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+        where = f"{frame.filename}:{frame.lineno}" if frame else "?"
+        if sub.policy == "restart" and self._restarts[(cid, agent)] < sub.max_restarts:
+            self._restarts[(cid, agent)] += 1
+            action = f"restarted for agent '{agent}' ({self._restarts[(cid, agent)]}/{sub.max_restarts})"
+            try:
+                sub.component.reset(agent)
+            except Exception as reset_exc:  # a reset that fails ends the restarts
+                action = f"reset failed ({reset_exc}); disabled for agent '{agent}'"
+                self._disabled.add((cid, agent))
+        elif sub.policy == "disable":
+            action = "disabled"
+            self._disabled.add((cid, None))
+        else:
+            action = f"disabled for agent '{agent}'" if agent else "disabled for unassigned data"
+            self._disabled.add((cid, agent))
+        fault = Fault(cid, agent, stream, msg.t, f"{type(exc).__name__}: {exc}", where, action)
+        self.faults.append(fault)
+        self.stats.count(cid, "faults")
+        log.error("plugin '%s' raised %s while handling %s (agent '%s', t=%.3f) at %s; %s",
+                  cid, fault.error, stream, agent, msg.t, where, action)
+        log.debug("traceback:\n%s", "".join(traceback.format_exception(exc)))
+        report = Diagnostic(t=msg.t, agent=agent, component=cid, level="error",
+                            code="plugin_fault", text=f"{fault.error} at {where}; {action}")
+        stream_out = f"{cid}.diagnostics"
+        self.stats.seen(stream_out)
+        for tap in self.taps:
+            tap(stream_out, report)
+        for other in self._subs.get(stream_out, ()):
+            if other.component is not sub.component:
+                self.deliver(other, stream_out, report)

@@ -1,0 +1,289 @@
+"""Typed messages that flow between firenav components.
+
+Conventions used by every message (and therefore by every plugin):
+
+* Time ``t`` is the *measurement* time in seconds on the pipeline clock (float).
+  The timeline orders messages by it. Blocks of samples carry the time of their
+  **last** sample, i.e. the moment the whole block exists.
+* The navigation frame is local **ENU** in metres: x east, y north, z up, origin at
+  the building origin (or at the start of an unaided INS). Heading (yaw) is in
+  radians, counter-clockwise from the x (east) axis, wrapped to (-pi, pi].
+* The body frame of a conditioned IMU is **FLU**: x forward (toe), y left, z up.
+  At rest and level, specific force reads about +9.81 m/s^2 on z.
+* All quantities are SI: m, s, rad, m/s^2, rad/s; RSSI in dBm; magnetic field in uT.
+* ``agent`` names the firefighter a message belongs to (``""`` when it belongs to no
+  one, e.g. a breadcrumb-to-breadcrumb RSSI reading); ``device`` names the physical
+  device that produced it.
+
+Messages are immutable dataclasses; array fields are numpy arrays that receivers
+must not modify in place.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+__all__ = [
+    "Message", "RawFrame", "ImuBlock", "Range", "RssiReading", "TagDetection",
+    "TagDeployment", "BreadcrumbDrop", "Odometry", "PoseEstimate", "Diagnostic",
+    "GroundTruth", "Tick", "MESSAGE_TYPES", "POSE_COV_AXES",
+]
+
+#: Order of the axes in the 4x4 covariance carried by Odometry and PoseEstimate.
+POSE_COV_AXES = ("x", "y", "z", "heading")
+
+
+def _digest_value(h: "hashlib._Hash", value: Any) -> None:
+    if isinstance(value, np.ndarray):
+        h.update(str(value.dtype).encode())
+        h.update(str(value.shape).encode())
+        h.update(np.ascontiguousarray(value).tobytes())
+    elif isinstance(value, (bytes, bytearray)):
+        h.update(bytes(value))
+    else:
+        h.update(repr(value).encode())
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class Message:
+    """Base of all messages: measurement time, agent and device."""
+
+    t: float
+    agent: str = ""
+    device: str = ""
+
+    kind: ClassVar[str] = "message"
+
+    def shifted(self, dt: float) -> "Message":
+        """The same message with every time field moved by ``dt`` seconds."""
+        return dataclasses.replace(self, t=self.t + dt)
+
+    def digest(self) -> bytes:
+        """A content hash (time included) used to recognise exact duplicates."""
+        h = hashlib.blake2b(digest_size=16)
+        h.update(type(self).__name__.encode())
+        for f in dataclasses.fields(self):
+            _digest_value(h, getattr(self, f.name))
+        return h.digest()
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class RawFrame(Message):
+    """An undecoded frame as it came off a transport (CAN, serial, MAVLink, UDP).
+
+    ``channel`` identifies the frame kind within the transport (CAN arbitration id,
+    MAVLink message id, serial line prefix). ``t_recv`` is the wall-clock receive
+    time (UNIX seconds) when known, used to tell device clock jumps from real gaps.
+    """
+
+    transport: str
+    channel: int | str
+    data: bytes
+    t_recv: float | None = None
+    kind: ClassVar[str] = "raw_frame"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class ImuBlock(Message):
+    """A block of N inertial samples from one device.
+
+    ``time`` (N,) sample times [s]; ``accel`` (N, 3) specific force [m/s^2];
+    ``gyro`` (N, 3) angular rate [rad/s]; optional ``mag`` (N, 3) [uT].
+    ``frame`` names the axes: ``"FLU"`` once conditioned by a sensor plugin;
+    anything else means raw device axes. ``flags`` (N,) uint8 marks samples a sensor
+    plugin found suspicious (see :data:`IMU_FLAG_BITS`) and kept; dropped samples
+    are simply absent. ``t`` equals ``time[-1]``.
+    """
+
+    time: np.ndarray
+    accel: np.ndarray
+    gyro: np.ndarray
+    mag: np.ndarray | None = None
+    flags: np.ndarray | None = None
+    frame: str = "FLU"
+    kind: ClassVar[str] = "imu_block"
+
+    def __post_init__(self) -> None:
+        n = len(self.time)
+        if n == 0:
+            raise ValueError("an ImuBlock needs at least one sample")
+        if self.accel.shape != (n, 3) or self.gyro.shape != (n, 3):
+            raise ValueError(
+                f"ImuBlock arrays disagree: time has {n} samples, accel "
+                f"{self.accel.shape}, gyro {self.gyro.shape}; expected ({n}, 3)")
+        if self.mag is not None and self.mag.shape != (n, 3):
+            raise ValueError(f"ImuBlock mag has shape {self.mag.shape}, expected ({n}, 3)")
+
+    @classmethod
+    def from_arrays(cls, time: np.ndarray, accel: np.ndarray, gyro: np.ndarray,
+                    **kw: Any) -> "ImuBlock":
+        """Build a block whose ``t`` is the last sample time."""
+        time = np.asarray(time, dtype=float)
+        return cls(t=float(time[-1]), time=time, accel=np.asarray(accel, dtype=float),
+                   gyro=np.asarray(gyro, dtype=float), **kw)
+
+    def __len__(self) -> int:
+        return len(self.time)
+
+    def shifted(self, dt: float) -> "ImuBlock":
+        return dataclasses.replace(self, t=self.t + dt, time=self.time + dt)
+
+
+#: Bits of ``ImuBlock.flags``.
+IMU_FLAG_BITS = {"saturated": 1, "out_of_range": 2, "gap_before": 4, "repaired": 8}
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class Range(Message):
+    """A distance between two nodes [m] with its standard deviation [m].
+
+    ``a`` and ``b`` are node ids (a wearable tag, an anchor, a breadcrumb, the base
+    station). ``method`` says how it was measured: ``"uwb"``, ``"rssi"``, ...
+    ``nlos`` marks ranges a sensor plugin suspects to be non-line-of-sight.
+    """
+
+    a: str
+    b: str
+    range_m: float
+    sigma_m: float
+    method: str = "uwb"
+    nlos: bool = False
+    kind: ClassVar[str] = "range"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class RssiReading(Message):
+    """Received signal strength [dBm] of a packet from node ``tx`` heard at ``rx``."""
+
+    tx: str
+    rx: str
+    rssi_dbm: float
+    kind: ClassVar[str] = "rssi"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class TagDetection(Message):
+    """An RFID reader on ``agent`` read tag ``tag_id`` (``reads`` times in the window)."""
+
+    tag_id: str
+    reader: str = ""
+    rssi_dbm: float | None = None
+    reads: int = 1
+    kind: ClassVar[str] = "tag_detection"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class TagDeployment(Message):
+    """``agent`` attached tag ``tag_id`` at about its current position (door jamb, stair end)."""
+
+    tag_id: str
+    kind: ClassVar[str] = "tag_deployment"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class BreadcrumbDrop(Message):
+    """Dispenser ``device`` on ``agent`` dropped breadcrumb node ``node_id`` at time t."""
+
+    node_id: str
+    kind: ClassVar[str] = "breadcrumb_drop"
+
+
+def _check_cov4(cov: np.ndarray, what: str) -> None:
+    if cov.shape != (4, 4):
+        raise ValueError(f"{what} covariance must be 4x4 over (x, y, z, heading), got {cov.shape}")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class Odometry(Message):
+    """A dead-reckoning increment between two instants (typically two stances).
+
+    ``delta`` (3,) displacement [m] from ``t_start`` to ``t`` expressed in the
+    odometry's own ENU frame (the INS frame, whose yaw is arbitrary);
+    ``dheading`` heading change [rad] over the interval; ``cov`` (4, 4) covariance
+    of (dx, dy, dz, dheading). ``position`` (3,) and ``heading`` are the odometry's
+    absolute pose at ``t`` in its own frame, for consumers that want it.
+    ``motion`` labels the gait when known (``"walk"``, ``"stairs_up"``,
+    ``"stairs_down"``, ``"stairs_down_backward"``, ``"crawl"``, ``"still"``).
+    """
+
+    t_start: float
+    delta: np.ndarray
+    dheading: float
+    cov: np.ndarray
+    position: np.ndarray
+    heading: float
+    motion: str = ""
+    kind: ClassVar[str] = "odometry"
+
+    def __post_init__(self) -> None:
+        _check_cov4(self.cov, "Odometry")
+
+    def shifted(self, dt: float) -> "Odometry":
+        return dataclasses.replace(self, t=self.t + dt, t_start=self.t_start + dt)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class PoseEstimate(Message):
+    """An estimated pose of ``agent`` with its uncertainty.
+
+    ``position`` (3,) ENU [m] in the building frame; ``heading`` [rad];
+    ``cov`` (4, 4) over (x, y, z, heading); ``floor`` the floor index (0 = ground
+    floor) or None when unknown. ``trusted`` is False when the estimator itself
+    judges the estimate unreliable (e.g. particle spread after a map error).
+    """
+
+    position: np.ndarray
+    heading: float
+    cov: np.ndarray
+    floor: int | None = None
+    trusted: bool = True
+    kind: ClassVar[str] = "pose"
+
+    def __post_init__(self) -> None:
+        _check_cov4(self.cov, "PoseEstimate")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class Diagnostic(Message):
+    """Something a component wants the operator to know.
+
+    ``level`` is ``"info"``, ``"warning"`` or ``"error"``; ``code`` a stable
+    machine-readable name (``"device_silent"``, ``"map_error"``, ``"plugin_fault"``,
+    ...); ``active`` False announces that a condition has cleared.
+    """
+
+    component: str
+    level: str
+    code: str
+    text: str
+    active: bool = True
+    kind: ClassVar[str] = "diagnostic"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class GroundTruth(Message):
+    """The true pose of ``agent`` (simulator or surveyed checkpoint), ENU building frame."""
+
+    position: np.ndarray
+    heading: float = float("nan")
+    floor: int | None = None
+    kind: ClassVar[str] = "ground_truth"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class Tick(Message):
+    """A periodic tick at a fixed rate, for estimators that run synchronously."""
+
+    period: float
+    kind: ClassVar[str] = "tick"
+
+
+MESSAGE_TYPES: dict[str, type[Message]] = {
+    cls.kind: cls for cls in (RawFrame, ImuBlock, Range, RssiReading, TagDetection,
+                              TagDeployment, BreadcrumbDrop, Odometry, PoseEstimate,
+                              Diagnostic, GroundTruth, Tick)
+}

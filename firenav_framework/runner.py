@@ -1,0 +1,298 @@
+"""Builds a validated pipeline and runs it: sources -> timeline -> bus -> components.
+
+Offline sources are merged lazily (always pulling from the source whose next message
+is oldest) and replayed as fast as possible, or paced to the wall clock with
+``realtime``. Live sources run in their own threads and feed a queue; the timeline
+then also releases any message that has waited ``reorder_window`` seconds of wall
+time, which bounds latency. Both paths go through the same timeline, bus and
+components.
+"""
+from __future__ import annotations
+
+import heapq
+import logging
+import math
+import queue
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+from .bus import Bus, Fault, Subscription
+from .components import Component, Context, Estimator, Source
+from .messages import Diagnostic, Message
+from .pipeline import ComponentSpec, PipelineSpec
+from .stats import RunStats
+from .timeline import Timeline
+from .tracks import Track, TrackStore
+
+log = logging.getLogger("firenav.runner")
+
+
+class PipelineBuildError(RuntimeError):
+    """A component could not be constructed (bad file, missing device ...)."""
+
+
+@dataclass
+class RunResult:
+    """Everything a run produced, for the summary, evaluation and tests."""
+
+    pipeline: str
+    stats: RunStats
+    tracks: dict[str, dict[str, Track]]
+    truth: dict[str, Track]
+    diagnostics: list[Diagnostic]
+    faults: list[Fault]
+    t_first: float | None
+    t_last: float | None
+    wall_s: float
+    components: dict[str, Component] = field(default_factory=dict)
+    building: Any = None
+
+    @property
+    def duration_s(self) -> float:
+        return 0.0 if self.t_first is None else self.t_last - self.t_first
+
+
+class _Progress:
+    """Prints a progress line to stderr every few seconds of wall time."""
+
+    def __init__(self, span: tuple[float, float] | None, stream: TextIO | None, every: float = 2.0):
+        self.span, self.stream, self.every = span, stream, every
+        self.start = time.monotonic()
+        self.next = self.start + every
+        self.count = 0
+
+    def update(self, t: float) -> None:
+        self.count += 1
+        if self.stream is None or self.count & 255:
+            return
+        now = time.monotonic()
+        if now < self.next:
+            return
+        self.next = now + self.every
+        line = f"[firenav] t={t:.1f} s"
+        if self.span and self.span[1] > self.span[0]:
+            frac = min(1.0, max(0.0, (t - self.span[0]) / (self.span[1] - self.span[0])))
+            line += f" of {self.span[1] - self.span[0]:.0f} s ({100 * frac:.0f}%)"
+        line += f", {self.count} messages, {now - self.start:.0f} s elapsed"
+        print(line, file=self.stream, flush=True)
+
+
+class Runner:
+    """One run of one pipeline. Create, then call :meth:`run` once."""
+
+    def __init__(self, spec: PipelineSpec, *, output_dir: Path | None = None,
+                 realtime: bool = False, speed: float = 1.0,
+                 progress: TextIO | None = None):
+        self.spec = spec
+        self.output_dir = output_dir
+        self.realtime = realtime
+        self.speed = speed
+        self.progress_stream = progress
+        self.stats = RunStats()
+        self.bus = Bus(stats=self.stats)
+        self.timeline = Timeline(spec.timeline, self.stats)
+        self.store = TrackStore()
+        self.diagnostics: list[Diagnostic] = []
+        self.components: dict[str, Component] = {}
+        self.subs: dict[str, Subscription] = {}
+        self._stop = threading.Event()
+        self._building_cache: list[Any] = []
+
+    # -- construction ---------------------------------------------------------------
+    def _load_building(self) -> Any:
+        if not self._building_cache:
+            if self.spec.building is not None:
+                from .building import load_building
+                self._building_cache.append(load_building(self.spec.building))
+            else:
+                for comp in self.components.values():
+                    if isinstance(comp, Source) and comp.building() is not None:
+                        self._building_cache.append(comp.building())
+                        break
+                else:
+                    raise RuntimeError("this pipeline has no building")
+        return self._building_cache[0]
+
+    def _publish(self, cid: str, port: str, msg: Message) -> None:
+        spec = self._specs[cid]
+        if port not in spec.outputs:
+            raise ValueError(f"'{cid}' ({spec.plugin.name}) published on undeclared port "
+                             f"'{port}'; its ports are {', '.join(spec.outputs)}")
+        self.bus.publish(f"{cid}.{port}", msg)
+
+    def build(self) -> None:
+        self._specs = {c.id: c for c in self.spec.components}
+        out_dir = self.output_dir
+        for cs in self.spec.components:
+            ctx = Context(cs.id, stats=self.stats, publish=self._publish,
+                          base_dir=self.spec.base_dir, output_dir=out_dir,
+                          building_loader=self._load_building)
+            try:
+                comp = cs.cls(cs.params, ctx)
+            except Exception as exc:
+                where = f"{self.spec.file}:{self.spec.document.locate(cs.path)[0]}"
+                raise PipelineBuildError(f"{where}: cannot set up '{cs.id}' "
+                                         f"({cs.plugin.name}): {exc}") from exc
+            self.components[cs.id] = comp
+            sub = Subscription(comp, policy=cs.on_error, agents=cs.agents)  # type: ignore[arg-type]
+            self.subs[cs.id] = sub
+            for stream in cs.inputs:
+                self.bus.subscribe(stream, sub)
+            period = getattr(cs.cls, "tick_period", None)
+            if callable(period) and period(cs.params):
+                stream = f"ticks.{period(cs.params):g}"
+                if stream not in self.bus._subs:
+                    self.timeline.add_tick(period(cs.params), stream)
+                self.bus.subscribe(stream, sub)
+        for cs in self.spec.components:
+            if cs.kind == "constraint":
+                parent = self.components[cs.parent]
+                assert isinstance(parent, Estimator)
+                parent.constraints.append(self.components[cs.id])
+        self.bus.taps.append(self.store)
+        self.bus.taps.append(self._tap_diagnostics)
+
+    def _tap_diagnostics(self, stream: str, msg: Message) -> None:
+        if isinstance(msg, Diagnostic):
+            self.diagnostics.append(msg)
+
+    # -- running ------------------------------------------------------------------
+    def stop(self) -> None:
+        """Ask the run to end (e.g. on Ctrl-C): sources stop, buffers are flushed."""
+        self._stop.set()
+        for comp in self.components.values():
+            if isinstance(comp, Source):
+                comp.stop()
+
+    def run(self) -> RunResult:
+        self.build()
+        wall0 = time.monotonic()
+        for cid, comp in self.components.items():
+            self.bus.call(self.subs[cid], "start", comp.start)
+        sources = [(cid, c) for cid, c in self.components.items() if isinstance(c, Source)]
+        spans = [s.duration() for _, s in sources]
+        span = None if any(sp is None for sp in spans) or not spans else (
+            min(sp[0] for sp in spans), max(sp[1] for sp in spans))
+        progress = _Progress(span, self.progress_stream)
+        self._t_first: float | None = None
+        self._t_last: float | None = None
+        self._pace0: tuple[float, float] | None = None
+        try:
+            if any(s.live for _, s in sources):
+                self._run_live(sources, progress)
+            else:
+                self._run_offline(sources, progress)
+        except KeyboardInterrupt:
+            log.warning("interrupted: flushing what has arrived")
+            self.stop()
+            self._dispatch(self.timeline.release(flush=True), progress)
+        for cid, comp in self.components.items():
+            if not isinstance(comp, Source):
+                self.bus.call(self.subs[cid], "finish", comp.finish,
+                              t=self._t_last if self._t_last is not None else 0.0)
+        return RunResult(
+            pipeline=self.spec.name, stats=self.stats, tracks=self.store.tracks(),
+            truth=self.store.truth(), diagnostics=self.diagnostics, faults=self.bus.faults,
+            t_first=self._t_first, t_last=self._t_last, wall_s=time.monotonic() - wall0,
+            components=self.components,
+            building=self._building_cache[0] if self._building_cache else None)
+
+    def _source_iter(self, cid: str, src: Source) -> Iterator[tuple[str, Message]]:
+        """A source's messages as (stream, message); a failing source is a contained fault."""
+        it = src.messages()
+        while True:
+            try:
+                port, msg = next(it)
+            except StopIteration:
+                return
+            except Exception as exc:
+                if self.subs[cid].policy == "raise":
+                    raise
+                self.bus.report_fault(self.subs[cid], f"{cid}.messages",
+                                Diagnostic(t=self._t_last or 0.0, component=cid, level="",
+                                           code="", text=""), exc)
+                return
+            yield f"{cid}.{port}", msg
+
+    def _run_offline(self, sources: list[tuple[str, Source]], progress: _Progress) -> None:
+        heads: list[tuple[float, int, str, Message, Iterator]] = []
+        for i, (cid, src) in enumerate(sources):
+            it = self._source_iter(cid, src)
+            first = next(it, None)
+            if first is not None:
+                heapq.heappush(heads, (first[1].t, i, first[0], first[1], it))
+        while heads and not self._stop.is_set():
+            _, i, stream, msg, it = heapq.heappop(heads)
+            self.timeline.push(stream, msg)
+            nxt = next(it, None)
+            if nxt is not None:
+                heapq.heappush(heads, (nxt[1].t, i, nxt[0], nxt[1], it))
+            self._dispatch(self.timeline.release(), progress)
+        self._dispatch(self.timeline.release(flush=True), progress)
+
+    def _run_live(self, sources: list[tuple[str, Source]], progress: _Progress) -> None:
+        q: queue.Queue = queue.Queue()
+        done = object()
+
+        def pump(cid: str, src: Source) -> None:
+            try:
+                for item in self._source_iter(cid, src):
+                    q.put((time.monotonic(), item))
+                    if self._stop.is_set():
+                        break
+            finally:
+                q.put((time.monotonic(), done))
+
+        threads = [threading.Thread(target=pump, args=s, name=f"source-{s[0]}", daemon=True)
+                   for s in sources]
+        for th in threads:
+            th.start()
+        running = len(threads)
+        window = self.spec.timeline.reorder_window
+        arrivals: list[tuple[float, float]] = []  # (wall arrival, t) min-heap by arrival
+        while running:
+            try:
+                wall, item = q.get(timeout=max(0.01, window / 4))
+            except queue.Empty:
+                item = None
+            else:
+                if item is done:
+                    running -= 1
+                else:
+                    stream, msg = item
+                    self.timeline.push(stream, msg)
+                    heapq.heappush(arrivals, (wall, msg.t))
+            now = time.monotonic()
+            older = -math.inf
+            while arrivals and arrivals[0][0] + window <= now:
+                older = max(older, heapq.heappop(arrivals)[1])
+            self._dispatch(self.timeline.release(older_than=older), progress)
+        self._dispatch(self.timeline.release(flush=True), progress)
+
+    def _dispatch(self, released: list[tuple[str, Message]], progress: _Progress) -> None:
+        for stream, msg in released:
+            if self._t_first is None:
+                self._t_first = msg.t
+            self._t_last = msg.t if self._t_last is None else max(self._t_last, msg.t)
+            if self.realtime:
+                self._pace(msg.t)
+            self.bus.publish(stream, msg)
+            progress.update(msg.t)
+
+    def _pace(self, t: float) -> None:
+        if self._pace0 is None:
+            self._pace0 = (time.monotonic(), t)
+            return
+        wall0, t0 = self._pace0
+        delay = wall0 + (t - t0) / self.speed - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+
+
+def run_pipeline(spec: PipelineSpec, **kw: Any) -> RunResult:
+    """Build and run ``spec`` (see :class:`Runner` for the keywords)."""
+    return Runner(spec, **kw).run()

@@ -1,0 +1,221 @@
+"""Merges message streams into one measurement-time order, with named rules.
+
+Messages enter with :meth:`Timeline.push` and leave, sorted by time, through
+:meth:`Timeline.release`. A message is held until the newest time seen is at least
+``reorder_window`` seconds past it, so late arrivals within the window are put back in
+order. The rules below are applied per *channel*: one stream of one device.
+
+``duplicate``
+    A message identical in content and time to one of the last ``duplicate_memory``
+    messages of its channel is dropped (``duplicates: drop``) or passed on (``keep``).
+``late``
+    A message older than one already released cannot be put in order any more. It is
+    dropped (``late: drop``) or delivered at once, out of order (``late: deliver``).
+``clock_jump``
+    A channel whose time steps back by more than ``clock_jump`` seconds, or (when
+    receive times are known) whose measurement-time step disagrees with its
+    receive-time step by more than that, has had its clock reset. With
+    ``on_clock_jump: rebase`` the channel's later times are shifted so that it
+    continues where it was (one typical sample interval on); with ``drop`` its
+    messages are dropped until its time passes the old time again.
+``gap``
+    A forward step longer than ``gap`` seconds (without a clock jump) is a gap: the
+    data are kept and a ``gap`` diagnostic is issued.
+
+Periodic ticks: every registered period produces :class:`Tick` messages at
+multiples of the period, released before any message with a later time. The
+output is deterministic: equal input always gives equal output order.
+"""
+from __future__ import annotations
+
+import heapq
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .messages import Diagnostic, Message, Tick
+from .stats import RunStats
+
+TIMELINE_ID = "timeline"
+
+
+class TimelineConfig(BaseModel):
+    """The timeline's rules (the ``timeline:`` section of a pipeline)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    reorder_window: float = Field(0.25, ge=0, description="hold messages this long [s] to reorder late arrivals", json_schema_extra={"unit": "s"})
+    duplicates: Literal["drop", "keep"] = Field("drop", description="rule for exact duplicates")
+    duplicate_memory: int = Field(64, ge=1, description="messages per channel remembered for duplicate detection")
+    late: Literal["drop", "deliver"] = Field("drop", description="rule for messages older than ones already released")
+    clock_jump: float = Field(5.0, gt=0, description="a time step back larger than this [s] is a clock jump", json_schema_extra={"unit": "s"})
+    on_clock_jump: Literal["rebase", "drop"] = Field("rebase", description="rule for clock jumps")
+    gap: float = Field(2.0, gt=0, description="a silence longer than this [s] is reported as a gap", json_schema_extra={"unit": "s"})
+
+
+@dataclass
+class _Channel:
+    last_t: float = -math.inf
+    last_recv: float | None = None
+    offset: float = 0.0
+    typical_dt: float = 0.0
+    dropping_until: float | None = None
+    recent: deque = field(default_factory=deque)
+    recent_set: set = field(default_factory=set)
+
+
+@dataclass(order=True)
+class _Entry:
+    t: float
+    seq: int
+    stream: str = field(compare=False)
+    msg: Message = field(compare=False)
+
+
+class Timeline:
+    """See the module docstring for the rules."""
+
+    def __init__(self, config: TimelineConfig | None = None, stats: RunStats | None = None):
+        self.config = config or TimelineConfig()
+        self.stats = stats or RunStats()
+        self._heap: list[_Entry] = []
+        self._seq = 0
+        self._channels: dict[tuple[str, str], _Channel] = {}
+        self._newest = -math.inf
+        self._released = -math.inf
+        self._ticks: list[list] = []  # [index of next tick or None, period, stream]
+        self._out: list[tuple[str, Message]] = []  # late deliveries and diagnostics
+
+    # -- configuration ------------------------------------------------------------
+    def add_tick(self, period: float, stream: str) -> None:
+        """Emit ``Tick`` messages every ``period`` seconds on ``stream``."""
+        if not period > 0:
+            raise ValueError(f"tick period must be positive, got {period}")
+        self._ticks.append([None, period, stream])
+
+    # -- input --------------------------------------------------------------------
+    def push(self, stream: str, msg: Message, t_recv: float | None = None) -> None:
+        """Accept one message from ``stream``; it may be held, dropped or passed on."""
+        cfg = self.config
+        key = (stream, msg.device or msg.agent)
+        ch = self._channels.get(key)
+        if ch is None:
+            ch = self._channels[key] = _Channel()
+        if t_recv is None:
+            t_recv = getattr(msg, "t_recv", None)
+        if not math.isfinite(msg.t):
+            self._count("bad_time")
+            return
+
+        if ch.offset:
+            msg = msg.shifted(ch.offset)
+        if cfg.duplicates == "drop":
+            digest = msg.digest()
+            if digest in ch.recent_set:
+                self._count("duplicates")
+                return
+            ch.recent.append(digest)
+            ch.recent_set.add(digest)
+            if len(ch.recent) > cfg.duplicate_memory:
+                ch.recent_set.discard(ch.recent.popleft())
+
+        if ch.dropping_until is not None:
+            if msg.t <= ch.dropping_until:
+                self._count("clock_jump_dropped")
+                return
+            ch.dropping_until = None
+
+        if ch.last_t > -math.inf:
+            dt = msg.t - ch.last_t
+            jump = None
+            if t_recv is not None and ch.last_recv is not None:
+                if abs(dt - (t_recv - ch.last_recv)) > cfg.clock_jump:
+                    jump = dt - (t_recv - ch.last_recv)
+            elif dt < -cfg.clock_jump:
+                jump = dt - ch.typical_dt
+            if jump is not None:
+                msg = self._clock_jump(stream, key, ch, msg, jump)
+                if msg is None:
+                    return
+                dt = msg.t - ch.last_t
+            if dt > cfg.gap:
+                self._count("gaps")
+                self._diagnose(msg, "gap", f"{stream}: no data for {dt:.2f} s "
+                               f"(device {key[1] or '?'})")
+            if 0 < dt <= cfg.gap:
+                ch.typical_dt = dt
+        if t_recv is not None:
+            ch.last_recv = t_recv
+        ch.last_t = max(ch.last_t, msg.t)
+
+        if msg.t < self._released:
+            if cfg.late == "drop":
+                self._count("late_dropped")
+                return
+            self._count("late_delivered")
+            self._out.append((stream, msg))
+            return
+        self._newest = max(self._newest, msg.t)
+        heapq.heappush(self._heap, _Entry(msg.t, self._seq, stream, msg))
+        self._seq += 1
+
+    def _clock_jump(self, stream: str, key: tuple[str, str], ch: _Channel,
+                    msg: Message, jump: float) -> Message | None:
+        self._count("clock_jumps")
+        if self.config.on_clock_jump == "drop":
+            self._diagnose(msg, "clock_jump", f"{stream}: device {key[1] or '?'} clock "
+                           f"jumped {jump:+.3f} s; dropping its data until it catches up")
+            ch.dropping_until = ch.last_t
+            return None
+        ch.offset -= jump
+        self._diagnose(msg, "clock_jump", f"{stream}: device {key[1] or '?'} clock "
+                       f"jumped {jump:+.3f} s; later times shifted by {-jump:+.3f} s")
+        return msg.shifted(-jump)
+
+    # -- output -------------------------------------------------------------------
+    def release(self, *, flush: bool = False, older_than: float | None = None
+                ) -> list[tuple[str, Message]]:
+        """Messages (with interleaved ticks) whose order can no longer change.
+
+        ``flush`` releases everything (end of input). ``older_than`` also releases
+        messages with time at or before it (used by live runs to bound latency).
+        """
+        out, self._out = self._out, []
+        limit = math.inf if flush else self._newest - self.config.reorder_window
+        if older_than is not None:
+            limit = max(limit, older_than)
+        while self._heap and self._heap[0].t <= limit:
+            entry = heapq.heappop(self._heap)
+            self._emit_ticks(entry.t, out)
+            self._released = max(self._released, entry.t)
+            out.append((entry.stream, entry.msg))
+        return out
+
+    def _emit_ticks(self, t: float, out: list[tuple[str, Message]]) -> None:
+        if not self._ticks:
+            return
+        for tick in self._ticks:
+            if tick[0] is None:  # the first tick is the first multiple at or after t
+                tick[0] = math.ceil(t / tick[1] - 1e-9)
+        while True:  # tick k is at k * period exactly, so no rounding drift builds up
+            nxt = min(self._ticks, key=lambda k: (k[0] * k[1], k[2]))
+            t_tick = nxt[0] * nxt[1]
+            if t_tick > t:
+                return
+            out.append((nxt[2], Tick(t=t_tick, period=nxt[1])))
+            nxt[0] += 1
+
+    @property
+    def pending(self) -> int:
+        return len(self._heap)
+
+    def _count(self, what: str) -> None:
+        self.stats.count(TIMELINE_ID, what)
+
+    def _diagnose(self, msg: Message, code: str, text: str) -> None:
+        self._out.append((f"{TIMELINE_ID}.diagnostics", Diagnostic(
+            t=msg.t, agent=msg.agent, component=TIMELINE_ID, level="warning",
+            code=code, text=text)))

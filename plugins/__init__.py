@@ -1,0 +1,1 @@
+"""Built-in firenav plugins (installed as ``firenav_plugins``)."""
