@@ -12,7 +12,8 @@ order. The rules below are applied per *channel*: one stream of one device.
     A message older than one already released cannot be put in order any more. It is
     dropped (``late: drop``) or delivered at once, out of order (``late: deliver``).
 ``clock_jump``
-    A channel whose time steps back by more than ``clock_jump`` seconds, or (when
+    A channel whose time steps back by more than ``clock_jump`` seconds (and more than
+    the reorder window, within which a step back is just a late arrival), or (when
     receive times are known) whose measurement-time step disagrees with its
     receive-time step by more than that, has had its clock reset. With
     ``on_clock_jump: rebase`` the channel's later times are shifted so that it
@@ -134,7 +135,7 @@ class Timeline:
             if t_recv is not None and ch.last_recv is not None:
                 if abs(dt - (t_recv - ch.last_recv)) > cfg.clock_jump:
                     jump = dt - (t_recv - ch.last_recv)
-            elif dt < -cfg.clock_jump:
+            elif dt < -max(cfg.clock_jump, cfg.reorder_window):
                 jump = dt - ch.typical_dt
             if jump is not None:
                 msg = self._clock_jump(stream, key, ch, msg, jump)

@@ -72,14 +72,26 @@ class LocatedDocument:
         return Problem(self.file, line, col, format_path(path), message)
 
 
+_PLAIN_TAGS = {yaml.MappingNode: "tag:yaml.org,2002:map",
+               yaml.SequenceNode: "tag:yaml.org,2002:seq"}
+
+
 def _convert(loader: yaml.SafeLoader, node: yaml.Node, path: Path_,
              marks: dict[Path_, tuple[int, int]]) -> Any:
     marks[path] = (node.start_mark.line + 1, node.start_mark.column + 1)
+    expected = _PLAIN_TAGS.get(type(node))
+    if expected is not None and node.tag != expected:  # the safe constructor only checks scalars
+        raise ConfigError([Problem("", *marks[path], format_path(path),
+                                   f"unsupported YAML tag '{node.tag}'; only plain YAML is read")])
     if isinstance(node, yaml.MappingNode):
         loader.flatten_mapping(node)  # resolves YAML merge keys (<<)
         out: dict[Any, Any] = {}
         for key_node, value_node in node.value:
             key = loader.construct_object(key_node, deep=True)
+            if not isinstance(key, (str, int, float, bool)):
+                raise ConfigError([Problem(
+                    "", key_node.start_mark.line + 1, key_node.start_mark.column + 1,
+                    format_path(path), f"mapping keys must be plain values, not {key!r}")])
             if key in out:
                 raise ConfigError([Problem(
                     "", key_node.start_mark.line + 1, key_node.start_mark.column + 1,
@@ -107,7 +119,9 @@ def loads(text: str, file: str = "<string>") -> LocatedDocument:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (None, None)
         what = " ".join(x for x in (exc.context, exc.problem) if x)
-        raise ConfigError([Problem(file, line, col, "", f"YAML syntax error: {what}")]) from None
+        kind = ("unsupported YAML (only plain YAML is read)"
+                if isinstance(exc, yaml.constructor.ConstructorError) else "YAML syntax error")
+        raise ConfigError([Problem(file, line, col, "", f"{kind}: {what}")]) from None
     except yaml.YAMLError as exc:
         raise ConfigError([Problem(file, None, None, "", f"YAML error: {exc}")]) from None
     finally:

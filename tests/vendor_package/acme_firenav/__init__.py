@@ -1,0 +1,1 @@
+"""ACME foot-IMU support for firenav."""
