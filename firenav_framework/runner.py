@@ -67,7 +67,7 @@ class _Progress:
 
     def update(self, t: float) -> None:
         self.count += 1
-        if self.stream is None or self.count & 255:
+        if self.stream is None or (self.count & 255 and self.every > 0):
             return
         now = time.monotonic()
         if now < self.next:
@@ -86,12 +86,13 @@ class Runner:
 
     def __init__(self, spec: PipelineSpec, *, output_dir: Path | None = None,
                  realtime: bool = False, speed: float = 1.0,
-                 progress: TextIO | None = None):
+                 progress: TextIO | None = None, progress_every: float = 2.0):
         self.spec = spec
         self.output_dir = output_dir
         self.realtime = realtime
         self.speed = speed
         self.progress_stream = progress
+        self.progress_every = progress_every
         self.stats = RunStats()
         self.bus = Bus(stats=self.stats)
         self.timeline = Timeline(spec.timeline, self.stats)
@@ -177,7 +178,7 @@ class Runner:
         spans = [s.duration() for _, s in sources]
         span = None if any(sp is None for sp in spans) or not spans else (
             min(sp[0] for sp in spans), max(sp[1] for sp in spans))
-        progress = _Progress(span, self.progress_stream)
+        progress = _Progress(span, self.progress_stream, self.progress_every)
         self._t_first: float | None = None
         self._t_last: float | None = None
         self._pace0: tuple[float, float] | None = None

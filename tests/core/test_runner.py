@@ -127,3 +127,26 @@ def test_collect_sink_sees_everything_in_time_order(tmp_path):
     # depth first: dr (subscribed first) handles the step and its pose reaches this sink
     # before the sink's own copy of the step does
     assert [s for s, _ in got[:3]] == ["dr.pose", "src.odo", "src.truth"]
+
+
+def test_a_failing_source_is_a_contained_fault_and_the_others_keep_running(tmp_path):
+    text = pipeline().replace(
+        "sources:\n", "sources:\n  - {id: flaky, plugin: flaky_script, fail_after: 2, "
+        "steps: [[1, ff3, 1.0], [2, ff3, 1.0], [3, ff3, 1.0]]}\n").replace(
+        "input: src.odo", "input: [src.odo, flaky.odo]")
+    res = run(text, tmp_path)
+    assert len(res.tracks["dr.pose"]["ff1"]) == 10
+    assert len(res.tracks["dr.pose"]["ff3"]) == 1        # one step arrived before the crash
+    (fault,) = res.faults
+    assert fault.component == "flaky" and "OSError: device vanished" in fault.error
+
+
+def test_progress_lines_show_the_fraction_done(tmp_path):
+    import io
+    buf = io.StringIO()
+    text = pipeline().replace("plugin: script", "plugin: flaky_script, fail_after: 1000")
+    spec = load_pipeline_text(text, registry=REG, base_dir=tmp_path)
+    run_pipeline(spec, output_dir=tmp_path, progress=buf, progress_every=0.0)
+    lines = buf.getvalue().splitlines()
+    assert lines[0].startswith("[firenav] t=1.0 s of 9 s (0%)")
+    assert lines[-1].startswith("[firenav] t=10.0 s of 9 s (100%)")

@@ -135,3 +135,24 @@ def toy_registry() -> Registry:
     for cls in TOYS:
         reg.add(cls, package="toys")
     return reg
+
+
+class FlakySource(ScriptSource):
+    """Like `script`, but raises after `fail_after` messages (a device driver crashing)."""
+
+    name = "flaky_script"
+
+    class Params(ScriptSource.Params):
+        fail_after: int = param(3, ge=0, description="messages before the failure")
+
+    def messages(self):
+        for i, item in enumerate(super().messages()):
+            if i == self.params.fail_after:
+                raise OSError("device vanished")
+            yield item
+
+    def duration(self):
+        return (1.0, 10.0)
+
+
+TOYS.append(FlakySource)
