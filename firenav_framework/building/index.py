@@ -1,0 +1,418 @@
+"""Uniform-grid index over 2-D line segments and the vectorised queries built on it.
+
+The particle filter asks "which of these N moves cross a wall?" thousands of times per
+second, so the index is built once per floor and every query is one compiled (numba)
+pass over the moves: each move visits only the grid cells its own segment touches and
+tests only the walls registered in those cells.
+
+Geometry conventions (shared by the grid kernels and the brute-force reference
+:func:`segments_hit_bruteforce`, so both give identical answers):
+
+* Segments are **closed**: touching counts. A move that ends (or starts) exactly on a
+  wall, or slides along it, hits it. Points closer than ``EPS`` (1e-9 m) to a segment's
+  line count as on it, so exactly-representable hand-computed cases behave as drawn.
+* Coordinates are metres in the floor's ENU frame; arrays are float64.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["SegmentIndex", "segments_hit_bruteforce", "EPS"]
+
+#: Distance [m] below which a point counts as lying on a segment's line.
+EPS = 1e-9
+
+
+# --------------------------------------------------------------------------- predicates
+
+@njit(cache=True, inline="always")
+def _side(ax, ay, bx, by, px, py, length):
+    """Sign (-1, 0, +1) of point p relative to the line a->b; 0 within EPS metres."""
+    o = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+    if abs(o) <= EPS * length:
+        return 0
+    return 1 if o > 0.0 else -1
+
+
+@njit(cache=True)
+def _hit_frac(p0x, p0y, p1x, p1y, w0x, w0y, w1x, w1y):
+    """Fraction along the move p0->p1 where it first touches wall w0-w1, or -1.0 (no hit)."""
+    dx = p1x - p0x
+    dy = p1y - p0y
+    ex = w1x - w0x
+    ey = w1y - w0y
+    lm = math.sqrt(dx * dx + dy * dy)
+    lw = math.sqrt(ex * ex + ey * ey)
+    s1 = _side(w0x, w0y, w1x, w1y, p0x, p0y, lw)
+    s2 = _side(w0x, w0y, w1x, w1y, p1x, p1y, lw)
+    if s1 * s2 > 0:
+        return -1.0
+    if s1 == 0 and s2 == 0:
+        # Both move ends on the wall's line: overlap of the projections on the wall.
+        if lw == 0.0:
+            return -1.0
+        ux = ex / lw
+        uy = ey / lw
+        a = (p0x - w0x) * ux + (p0y - w0y) * uy
+        b = (p1x - w0x) * ux + (p1y - w0y) * uy
+        if max(a, b) < -EPS or min(a, b) > lw + EPS:
+            return -1.0
+        if a >= -EPS and a <= lw + EPS:
+            return 0.0
+        # Enters the wall at its nearer end.
+        entry = 0.0 if a < 0.0 else lw
+        return min(1.0, max(0.0, (entry - a) / (b - a)))
+    s3 = _side(p0x, p0y, p1x, p1y, w0x, w0y, lm)
+    s4 = _side(p0x, p0y, p1x, p1y, w1x, w1y, lm)
+    if s3 * s4 > 0:
+        return -1.0
+    den = dx * ey - dy * ex
+    if den == 0.0:
+        # Zero-length move lying on the wall's line but inside the wall's extent.
+        return 0.0
+    t = ((w0x - p0x) * ey - (w0y - p0y) * ex) / den
+    return min(1.0, max(0.0, t))
+
+
+@njit(cache=True)
+def _point_seg_dist2(px, py, ax, ay, bx, by):
+    """Squared distance from p to segment a-b and the parameter of the closest point."""
+    ex = bx - ax
+    ey = by - ay
+    l2 = ex * ex + ey * ey
+    u = 0.0
+    if l2 > 0.0:
+        u = ((px - ax) * ex + (py - ay) * ey) / l2
+        u = min(1.0, max(0.0, u))
+    cx = ax + u * ex - px
+    cy = ay + u * ey - py
+    return cx * cx + cy * cy, u
+
+
+# --------------------------------------------------------------------------- grid walking
+
+@njit(cache=True)
+def _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad):
+    """Column range [i0, i1] of grid row j touched by segment (x0,y0)-(x1,y1); i0 > i1 if none."""
+    ylo = oy + j * h - pad
+    yhi = oy + (j + 1) * h + pad
+    dy = y1 - y0
+    if dy == 0.0:
+        if y0 < ylo or y0 > yhi:
+            return 0, -1
+        t0 = 0.0
+        t1 = 1.0
+    else:
+        ta = (ylo - y0) / dy
+        tb = (yhi - y0) / dy
+        t0 = max(0.0, min(ta, tb))
+        t1 = min(1.0, max(ta, tb))
+        if t0 > t1:
+            return 0, -1
+    xa = x0 + t0 * (x1 - x0)
+    xb = x0 + t1 * (x1 - x0)
+    i0 = int(math.floor((min(xa, xb) - pad - ox) / h))
+    i1 = int(math.floor((max(xa, xb) + pad - ox) / h))
+    return max(i0, 0), min(i1, nx - 1)
+
+
+@njit(cache=True)
+def _row_range(y0, y1, oy, h, ny, pad):
+    j0 = int(math.floor((min(y0, y1) - pad - oy) / h))
+    j1 = int(math.floor((max(y0, y1) + pad - oy) / h))
+    return max(j0, 0), min(j1, ny - 1)
+
+
+@njit(cache=True)
+def _build_cells(segs, ox, oy, h, nx, ny, pad):
+    """CSR lists of the segments touching each cell: (start (nx*ny+1,), items)."""
+    counts = np.zeros(nx * ny + 1, dtype=np.int64)
+    for w in range(segs.shape[0]):
+        x0, y0, x1, y1 = segs[w, 0, 0], segs[w, 0, 1], segs[w, 1, 0], segs[w, 1, 1]
+        j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
+        for j in range(j0, j1 + 1):
+            i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
+            for i in range(i0, i1 + 1):
+                counts[j * nx + i + 1] += 1
+    start = np.cumsum(counts)
+    items = np.empty(start[-1], dtype=np.int64)
+    fill = start[:-1].copy()
+    for w in range(segs.shape[0]):
+        x0, y0, x1, y1 = segs[w, 0, 0], segs[w, 0, 1], segs[w, 1, 0], segs[w, 1, 1]
+        j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
+        for j in range(j0, j1 + 1):
+            i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
+            for i in range(i0, i1 + 1):
+                c = j * nx + i
+                items[fill[c]] = w
+                fill[c] += 1
+    return start, items
+
+
+@njit(cache=True)
+def _first_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, stop_at_any):
+    """Per move: (fraction of the first hit or -1, segment index or -1)."""
+    n = p0.shape[0]
+    frac = np.full(n, -1.0)
+    which = np.full(n, -1, dtype=np.int64)
+    stamp = np.full(segs.shape[0], -1, dtype=np.int64)
+    for m in range(n):
+        x0, y0, x1, y1 = p0[m, 0], p0[m, 1], p1[m, 0], p1[m, 1]
+        best = 2.0
+        bestw = -1
+        j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
+        for j in range(j0, j1 + 1):
+            i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
+            for i in range(i0, i1 + 1):
+                c = j * nx + i
+                for k in range(start[c], start[c + 1]):
+                    w = items[k]
+                    if stamp[w] == m:
+                        continue
+                    stamp[w] = m
+                    t = _hit_frac(x0, y0, x1, y1, segs[w, 0, 0], segs[w, 0, 1],
+                                  segs[w, 1, 0], segs[w, 1, 1])
+                    if t >= 0.0 and (t < best or (t == best and w < bestw)):
+                        best = t
+                        bestw = w
+            if stop_at_any and bestw >= 0:
+                break
+        if bestw >= 0:
+            frac[m] = best
+            which[m] = bestw
+    return frac, which
+
+
+@njit(cache=True)
+def _all_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, count_only, out_m, out_w):
+    """Every (move, segment) pair that touches; returns the count (fills out_* unless count_only)."""
+    stamp = np.full(segs.shape[0], -1, dtype=np.int64)
+    k_out = 0
+    for m in range(p0.shape[0]):
+        x0, y0, x1, y1 = p0[m, 0], p0[m, 1], p1[m, 0], p1[m, 1]
+        j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
+        for j in range(j0, j1 + 1):
+            i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
+            for i in range(i0, i1 + 1):
+                c = j * nx + i
+                for k in range(start[c], start[c + 1]):
+                    w = items[k]
+                    if stamp[w] == m:
+                        continue
+                    stamp[w] = m
+                    t = _hit_frac(x0, y0, x1, y1, segs[w, 0, 0], segs[w, 0, 1],
+                                  segs[w, 1, 0], segs[w, 1, 1])
+                    if t >= 0.0:
+                        if not count_only:
+                            out_m[k_out] = m
+                            out_w[k_out] = w
+                        k_out += 1
+    return k_out
+
+
+@njit(cache=True)
+def _nearest(pts, segs, start, items, ox, oy, h, nx, ny):
+    """Nearest segment per point by ring search around the point's (clamped) cell."""
+    n = pts.shape[0]
+    dist = np.empty(n)
+    which = np.full(n, -1, dtype=np.int64)
+    closest = np.empty((n, 2))
+    stamp = np.full(segs.shape[0], -1, dtype=np.int64)
+    rmax = max(nx, ny)
+    for m in range(n):
+        px, py = pts[m, 0], pts[m, 1]
+        ci = min(max(int(math.floor((px - ox) / h)), 0), nx - 1)
+        cj = min(max(int(math.floor((py - oy) / h)), 0), ny - 1)
+        best = np.inf
+        bestw = -1
+        bestu = 0.0
+        for r in range(rmax + 1):
+            # Rings 0..r-1 are done; anything in ring >= r is at least (r-1)*h away.
+            if bestw >= 0 and math.sqrt(best) <= (r - 1) * h:
+                break
+            for j in range(cj - r, cj + r + 1):
+                if j < 0 or j >= ny:
+                    continue
+                edge_row = j == cj - r or j == cj + r
+                step = 1 if edge_row else 2 * r
+                i = ci - r
+                while i <= ci + r:
+                    if 0 <= i < nx:
+                        c = j * nx + i
+                        for k in range(start[c], start[c + 1]):
+                            w = items[k]
+                            if stamp[w] == m:
+                                continue
+                            stamp[w] = m
+                            d2, u = _point_seg_dist2(px, py, segs[w, 0, 0], segs[w, 0, 1],
+                                                     segs[w, 1, 0], segs[w, 1, 1])
+                            if d2 < best or (d2 == best and w < bestw):
+                                best = d2
+                                bestw = w
+                                bestu = u
+                    i += step
+        which[m] = bestw
+        if bestw >= 0:
+            dist[m] = math.sqrt(best)
+            closest[m, 0] = segs[bestw, 0, 0] + bestu * (segs[bestw, 1, 0] - segs[bestw, 0, 0])
+            closest[m, 1] = segs[bestw, 0, 1] + bestu * (segs[bestw, 1, 1] - segs[bestw, 0, 1])
+        else:
+            dist[m] = np.inf
+            closest[m, 0] = np.nan
+            closest[m, 1] = np.nan
+    return dist, closest, which
+
+
+@njit(cache=True)
+def _bruteforce(p0, p1, segs):
+    n = p0.shape[0]
+    frac = np.full(n, -1.0)
+    which = np.full(n, -1, dtype=np.int64)
+    for m in range(n):
+        for w in range(segs.shape[0]):
+            t = _hit_frac(p0[m, 0], p0[m, 1], p1[m, 0], p1[m, 1], segs[w, 0, 0],
+                          segs[w, 0, 1], segs[w, 1, 0], segs[w, 1, 1])
+            if t >= 0.0 and (which[m] < 0 or t < frac[m]):
+                frac[m] = t
+                which[m] = w
+    return frac, which
+
+
+# --------------------------------------------------------------------------- public API
+
+def _as_points(a: np.ndarray, name: str) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim == 1 and arr.shape == (2,):
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (N, 2) [m], got {np.shape(a)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} contains NaN or infinite coordinates")
+    return np.ascontiguousarray(arr)
+
+
+def _as_moves(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a = _as_points(p0, "p0")
+    b = _as_points(p1, "p1")
+    if a.shape != b.shape:
+        raise ValueError(f"p0 and p1 must have the same shape, got {a.shape} and {b.shape}")
+    return a, b
+
+
+class SegmentIndex:
+    """A uniform grid over a fixed set of segments (W, 2, 2) [m], built once.
+
+    ``cell`` is the grid spacing [m]; by default about the square root of the bounding
+    area per segment (clipped to 0.5-4 m), which keeps a few segments per cell for
+    building floors. Queries outside the grid simply find no segments there.
+    """
+
+    def __init__(self, segments: np.ndarray, cell: float | None = None):
+        segs = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+        if not np.all(np.isfinite(segs)):
+            raise ValueError("segments contain NaN or infinite coordinates")
+        self.segments = np.ascontiguousarray(segs)
+        if len(segs):
+            lo = segs.reshape(-1, 2).min(axis=0)
+            hi = segs.reshape(-1, 2).max(axis=0)
+        else:
+            lo = hi = np.zeros(2)
+        span = np.maximum(hi - lo, 1e-6)
+        if cell is None:
+            cell = float(np.clip(math.sqrt(span[0] * span[1] / max(len(segs), 1)), 0.5, 4.0))
+        if not (cell > 0 and math.isfinite(cell)):
+            raise ValueError(f"grid cell must be a positive size in metres, got {cell}")
+        # Cap the grid at about 4 million cells whatever the extent.
+        cell = max(cell, math.sqrt(span[0] * span[1] / 4e6))
+        self.cell = float(cell)
+        self.origin = lo - self.cell  # one empty cell of margin on each side
+        self.shape = (int(span[0] // self.cell) + 3, int(span[1] // self.cell) + 3)  # (nx, ny)
+        # Padding (m) that makes cell membership conservative for points on cell borders.
+        self._pad = 1e-7 * max(1.0, float(np.abs(segs).max()) if len(segs) else 1.0)
+        self._start, self._items = _build_cells(self.segments, float(self.origin[0]),
+                                                float(self.origin[1]), self.cell,
+                                                self.shape[0], self.shape[1], self._pad)
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+    def _grid_args(self):
+        return (self.segments, self._start, self._items, float(self.origin[0]),
+                float(self.origin[1]), self.cell, self.shape[0], self.shape[1])
+
+    def crosses(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+        """bool (N,): does move i (p0[i] -> p1[i]) touch any segment?"""
+        a, b = _as_moves(p0, p1)
+        frac, _ = _first_hits(a, b, *self._grid_args(), self._pad, True)
+        return frac >= 0.0
+
+    def first_hit(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(hit (N,), fraction in [0, 1] of the move at the first contact (NaN if none),
+        segment index (N,) or -1). Ties in fraction go to the lowest segment index."""
+        a, b = _as_moves(p0, p1)
+        frac, which = _first_hits(a, b, *self._grid_args(), self._pad, False)
+        hit = which >= 0
+        return hit, np.where(hit, frac, np.nan), which
+
+    def all_hits(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every touching (move index, segment index) pair, sorted by move then segment."""
+        a, b = _as_moves(p0, p1)
+        dummy = np.empty(0, dtype=np.int64)
+        n = _all_hits(a, b, *self._grid_args(), self._pad, True, dummy, dummy)
+        out_m = np.empty(n, dtype=np.int64)
+        out_w = np.empty(n, dtype=np.int64)
+        _all_hits(a, b, *self._grid_args(), self._pad, False, out_m, out_w)
+        order = np.lexsort((out_w, out_m))
+        return out_m[order], out_w[order]
+
+    def nearest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(distance (N,) [m], closest point (N, 2), segment index (N,)); inf/NaN/-1 if empty."""
+        pts = _as_points(points, "points")
+        if len(self.segments) == 0:
+            n = len(pts)
+            return np.full(n, np.inf), np.full((n, 2), np.nan), np.full(n, -1, dtype=np.int64)
+        return _nearest(pts, *self._grid_args())
+
+    def near(self, point: np.ndarray, radius: float) -> np.ndarray:
+        """Indices (sorted) of the segments within ``radius`` [m] of ``point`` (2,)."""
+        p = _as_points(point, "point")[0]
+        if not (radius >= 0 and math.isfinite(radius)):
+            raise ValueError(f"radius must be a finite distance >= 0 [m], got {radius}")
+        nx, ny = self.shape
+        i0 = max(int(math.floor((p[0] - radius - self.origin[0]) / self.cell)), 0)
+        i1 = min(int(math.floor((p[0] + radius - self.origin[0]) / self.cell)), nx - 1)
+        j0 = max(int(math.floor((p[1] - radius - self.origin[1]) / self.cell)), 0)
+        j1 = min(int(math.floor((p[1] + radius - self.origin[1]) / self.cell)), ny - 1)
+        if i0 > i1 or j0 > j1:
+            return np.empty(0, dtype=np.int64)
+        rows = np.arange(j0, j1 + 1)[:, None] * nx + np.arange(i0, i1 + 1)[None, :]
+        cells = rows.ravel()
+        cand = np.unique(np.concatenate([self._items[self._start[c]:self._start[c + 1]]
+                                         for c in cells]))
+        if len(cand) == 0:
+            return cand
+        d = _segment_distances(p, self.segments[cand])
+        return cand[d <= radius]
+
+
+def _segment_distances(p: np.ndarray, segs: np.ndarray) -> np.ndarray:
+    """Distances [m] from one point (2,) to each segment (K, 2, 2)."""
+    a = segs[:, 0]
+    e = segs[:, 1] - a
+    l2 = np.einsum("ij,ij->i", e, e)
+    u = np.clip(np.einsum("ij,ij->i", p - a, e) / np.where(l2 > 0, l2, 1.0), 0.0, 1.0)
+    return np.linalg.norm(a + u[:, None] * e - p, axis=1)
+
+
+def segments_hit_bruteforce(p0: np.ndarray, p1: np.ndarray,
+                            segments: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reference answer of :meth:`SegmentIndex.first_hit` testing every move against every
+    segment (no grid). For tests and benchmarks; O(N * W)."""
+    a, b = _as_moves(p0, p1)
+    segs = np.ascontiguousarray(np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2))
+    frac, which = _bruteforce(a, b, segs)
+    hit = which >= 0
+    return hit, np.where(hit, frac, np.nan), which
