@@ -1,0 +1,77 @@
+"""The ``recording`` source: replays a recorded file through any pipeline.
+
+The reader is chosen by the file's suffix (or the ``format`` parameter) from the
+table in :mod:`firenav_framework.sources.readers`, which says what each format
+yields. ``firenav run PIPELINE --input FILE`` sets ``path``.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+from pydantic import field_validator
+
+from ..components import Params, Source, param
+from ..messages import Message
+from .readers import ReaderError, ReadOptions, find_reader, reader_table
+
+
+class RecordingSource(Source):
+    """Replay a recorded file (real foot-IMU datasets, IMU CSV, link logs) as messages."""
+
+    name = "recording"
+    input_param = "path"
+
+    class Params(Params):
+        path: str | None = param(None, description="recorded file, relative to the pipeline "
+                                 "file; `firenav run --input FILE` sets it")
+        format: str = param("auto", description="'auto' (by suffix; .mat by its variables) "
+                            "or a format name / suffix, e.g. imu_csv, pyshoe_vicon, "
+                            "indoor_walk, csv, mat")
+        agent: str = param("ff1", min_length=1, description="firefighter the file's data "
+                           "belong to, unless the file says")
+        device: str | None = param(None, description="device id of the IMU data unless the "
+                                   "file says (default '<agent>/imu')")
+        block_s: float = param(0.1, unit="s", gt=0, le=10,
+                               description="length of the ImuBlock pieces IMU data are cut into")
+        time_offset: float = param(0.0, unit="s", description="added to every time in the "
+                                   "file (to line it up with other sources)")
+
+        @field_validator("format")
+        @classmethod
+        def _known_format(cls, fmt: str) -> str:
+            if fmt != "auto":
+                find_reader("", fmt)  # raises ReaderError (a ValueError) listing the formats
+            return fmt
+
+    @classmethod
+    def output_ports(cls, params: Params) -> dict[str, type[Message]]:
+        if params.path and params.format == "auto":
+            find_reader(params.path)  # an unknown suffix is reported at validation time
+        return {**reader_table().ports, **super().output_ports(params)}
+
+    def __init__(self, params: Params, ctx):
+        super().__init__(params, ctx)
+        if not params.path:
+            raise ReaderError("no file to replay: set `path` or run with --input FILE")
+        path = ctx.resolve(params.path)
+        if not path.is_file():
+            raise ReaderError(f"recording '{params.path}' not found (looked for {path})")
+        self.path: Path = path
+        options = ReadOptions(agent=params.agent, device=params.device or "",
+                              block_s=params.block_s, count=ctx.count)
+        self._reader = find_reader(path, params.format)(path, options)
+
+    def duration(self) -> tuple[float, float] | None:
+        span = getattr(self._reader, "duration", lambda: None)()
+        if span is None:
+            return None
+        return span[0] + self.params.time_offset, span[1] + self.params.time_offset
+
+    def messages(self) -> Iterator[tuple[str, Message]]:
+        dt = self.params.time_offset
+        for port, msg in self._reader:
+            yield port, (msg.shifted(dt) if dt else msg)
+
+
+PLUGINS = [RecordingSource]
