@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import shapely
@@ -27,11 +27,15 @@ def _fill(ax: Any, geom, **kw) -> None:
         ax.add_patch(PathPatch(MplPath(verts, codes), **kw))
 
 
-def draw_floor(ax: Any, building: Building, floor_index: int, *,
-               patterns: Sequence[np.ndarray] | None = None, labels: bool = False) -> None:
+def draw_floor(ax: Any, building: Building, floor_index: int, *, patterns: Any = None,
+               labels: bool = False) -> None:
     """Draw rooms, walls, obstacles, doors, openings, stairs, anchors and entrances of one
-    floor on ``ax`` (plan metres, equal aspect). ``patterns``: search-pattern node
-    sequences, each (N, 2) [m], drawn as numbered-free marker chains."""
+    floor on ``ax`` (plan metres, equal aspect).
+
+    ``patterns``: search patterns to overlay, either an object with
+    ``draw(ax, floor)`` (:class:`~.search_patterns.SearchPatterns`) or a list of node
+    sequences, each (N, 2) [m]. ``labels`` writes room names.
+    """
     floor = building.floor(floor_index)
     for room in floor.rooms:
         _fill(ax, room.polygon, facecolor=_ROOM_COLOURS.get(room.use, "#fafafa"),
@@ -73,9 +77,12 @@ def draw_floor(ax: Any, building: Building, floor_index: int, *,
             d = np.array([np.cos(e.heading), np.sin(e.heading)])
             ax.annotate("", xy=e.position + 1.2 * d, xytext=e.position - 1.2 * d, zorder=6,
                         arrowprops=dict(arrowstyle="-|>", color="#9467bd", lw=1.5))
-    for seq in patterns or []:
-        seq = np.asarray(seq, dtype=float).reshape(-1, 2)
-        ax.plot(seq[:, 0], seq[:, 1], "-o", color="#ff7f0e", ms=2.5, lw=0.6, alpha=0.8, zorder=7)
+    if hasattr(patterns, "draw"):
+        patterns.draw(ax, floor_index)
+    else:
+        for seq in patterns or []:
+            seq = np.asarray(seq, dtype=float).reshape(-1, 2)
+            ax.plot(seq[:, 0], seq[:, 1], "-o", color="#ff7f0e", ms=2.5, lw=0.6, alpha=0.8, zorder=7)
     x0, y0, x1, y1 = floor.outline.bounds if not floor.outline.is_empty else (0, 0, 1, 1)
     pts = [a.position[:2] for a in building.anchors if a.floor == floor_index]
     if pts:
@@ -87,10 +94,12 @@ def draw_floor(ax: Any, building: Building, floor_index: int, *,
     ax.set_aspect("equal")
 
 
-def save_floor_images(building: Building, out_dir: str | Path, *,
-                      patterns: dict[int, Sequence[np.ndarray]] | None = None,
+def save_floor_images(building: Building, out_dir: str | Path, *, patterns: Any = None,
                       dpi: int = 150) -> list[Path]:
-    """Write ``<out_dir>/<building>_floor<i>.png`` for every floor; returns the paths."""
+    """Write ``<out_dir>/<building>_floor<i>.png`` for every floor; returns the paths.
+
+    ``patterns`` as for :func:`draw_floor` (a SearchPatterns object covers all floors).
+    """
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -103,8 +112,7 @@ def save_floor_images(building: Building, out_dir: str | Path, *,
         w = max(x1 - x0, 1.0)
         h = max(y1 - y0, 1.0)
         fig, ax = plt.subplots(figsize=(min(16, 3 + 10 * w / max(w, h)), min(16, 3 + 10 * h / max(w, h))))
-        draw_floor(ax, building, floor.index, labels=True,
-                   patterns=(patterns or {}).get(floor.index))
+        draw_floor(ax, building, floor.index, labels=True, patterns=patterns)
         ax.set_title(f"{building.name}: floor {floor.index} ({floor.name}), z = {floor.z:g} m")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
