@@ -1,0 +1,10 @@
+"""Search-pattern ICP pseudo-observations for the particle filter (search-pattern paper §IV-D/E).
+
+Modules: :mod:`.principal` (eq. 1), :mod:`.icp` (batched ICP), :mod:`.comparison`
+(Algorithm 1 and the association of eq. 2), :mod:`.constraint` (the plugin).
+"""
+from .constraint import SearchPatternIcp
+
+PLUGINS = [SearchPatternIcp]
+
+__all__ = ["SearchPatternIcp", "PLUGINS"]

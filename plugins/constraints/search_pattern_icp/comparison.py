@@ -1,0 +1,145 @@
+"""Pattern comparison (Algorithm 1, §IV-D) and the pseudo-observation likelihood (eq. 2).
+
+:class:`PatternComparison` holds the sub-patterns of a building and, for an odometry
+trajectory of length d:
+
+1. rotates it by phi_hat of eq. (1) (:func:`.principal.principal_rotation`);
+2. runs ICP against every sub-pattern under the four initial rotations
+   0, pi/2, pi, 3pi/2 — one batched call (:func:`.icp.icp_batch`);
+3. for each (pattern, rotation), transforms the last odometry point and assigns the
+   RMSE to the pattern's first node (left-hand search: the walk ran backwards along
+   the pattern) or last node (right-hand search), whichever it lands closer to
+   (Algorithm 1, steps 7-12); E_m keeps the minimum over the rotations (step 14).
+
+The result is an :class:`Observations` table of 2K entries (column 1 and 2 of every
+E_m, Pos_m and Hea_m stacked), where an entry never chosen has RMSE +inf.
+
+Eq. (2) scores particle i with exp(-E^(i) / sigma^2), where E^(i) belongs to the
+observation "whose associated navigation state most closely resembles that of
+particle i": among the entries at the node nearest the particle (the "two identical
+positions" in Pos_m: a node is the first node of one pattern and the last node of
+another; more where sequences share a node), the one whose heading is closest to
+the particle's walking direction.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from firenav_framework.building.search_patterns import SearchPatterns
+
+from .icp import icp_batch
+from .principal import principal_rotation
+
+__all__ = ["Observations", "PatternComparison"]
+
+_FOUR = np.arange(4) * (np.pi / 2)
+
+
+@dataclass(frozen=True)
+class Observations:
+    """Pseudo-observations from one comparison: 2K entries (pattern k: 2k first, 2k+1 last).
+
+    ``position`` (2K, 2) [m] = Pos_m, ``heading`` (2K,) [rad] = Hea_m (walking
+    direction), ``rmse`` (2K,) [m] = E_m (+inf where not chosen), ``floor`` (2K,).
+    """
+
+    position: np.ndarray
+    heading: np.ndarray
+    rmse: np.ndarray
+    floor: np.ndarray
+
+    @property
+    def any_finite(self) -> bool:
+        return bool(np.isfinite(self.rmse).any())
+
+
+class PatternComparison:
+    """Sub-patterns of length ``length_m`` and the machinery to compare odometry with them."""
+
+    def __init__(self, patterns: SearchPatterns, length_m: float = 20.0, *,
+                 max_iter: int = 30, tol: float = 1e-4):
+        self.patterns = patterns
+        self.sub = patterns.subpatterns(length_m)
+        self.max_iter, self.tol = max_iter, tol
+        k = len(self.sub)
+        self.entry_node = np.empty(2 * k, dtype=np.int64)
+        self.entry_node[0::2] = self.sub.first_node
+        self.entry_node[1::2] = self.sub.last_node
+        self.entry_heading = np.empty(2 * k)
+        self.entry_heading[0::2] = self.sub.first_heading
+        self.entry_heading[1::2] = self.sub.last_heading
+        self.entry_floor = np.repeat(self.sub.floor, 2)
+        self.entry_position = patterns.nodes[self.entry_node]
+        # entries of every node, padded with -1: (n_nodes, max entries per node)
+        order = np.argsort(self.entry_node, kind="stable")
+        counts = np.bincount(self.entry_node, minlength=len(patterns.nodes))
+        width = int(counts.max()) if len(counts) else 0
+        self.node_entries = np.full((len(patterns.nodes), max(width, 1)), -1, dtype=np.int64)
+        rank = np.arange(len(order)) - np.repeat(np.cumsum(counts) - counts, counts)
+        self.node_entries[self.entry_node[order], rank] = order
+        # nearest-node lookup per floor, over nodes that carry entries
+        self._trees: dict[int, tuple[cKDTree, np.ndarray]] = {}
+        for fl in np.unique(self.sub.floor):
+            ids = np.flatnonzero((patterns.node_floor == fl) & (counts > 0))
+            self._trees[int(fl)] = (cKDTree(patterns.nodes[ids]), ids)
+        # candidate layout: pattern k under rotation i is candidate 4k + i
+        self._cand_pattern = np.repeat(np.arange(k), 4)
+        self._axis = np.array([patterns.angle[int(f)] for f in self.sub.floor])
+
+    def __len__(self) -> int:
+        return len(self.sub)
+
+    def compare(self, odo_xy: np.ndarray) -> Observations:
+        """Algorithm 1 for the odometry trajectory ``odo_xy`` (P, 2), INS frame [m]."""
+        k = len(self.sub)
+        init = np.empty(4 * k)
+        for axis in np.unique(self._axis):
+            phi = principal_rotation(odo_xy, float(axis))          # eq. (1)
+            sel = np.repeat(self._axis == axis, 4)
+            init[sel] = np.tile(phi + _FOUR, int(sel.sum()) // 4)
+        rmse, theta, trans, _ = icp_batch(odo_xy, self.sub.points, self._cand_pattern, init,
+                                          max_iter=self.max_iter, tol=self.tol)
+        last = odo_xy[-1]
+        c, s = np.cos(theta), np.sin(theta)
+        xt = np.column_stack([c * last[0] - s * last[1], s * last[0] + c * last[1]]) + trans
+        pts = self.sub.points[self._cand_pattern]
+        d_first = np.hypot(*(xt - pts[:, 0]).T)
+        d_last = np.hypot(*(xt - pts[:, -1]).T)
+        col = (d_first >= d_last).astype(np.int64)                # 0: first node, 1: last
+        e = np.full((k, 4, 2), np.inf)
+        e[self._cand_pattern, np.tile(np.arange(4), k), col] = rmse
+        emin = e.min(axis=1)                                        # (k, 2): E_m
+        return Observations(position=self.entry_position, heading=self.entry_heading,
+                            rmse=emin.reshape(-1), floor=self.entry_floor)
+
+    def associate(self, obs: Observations, xy: np.ndarray, heading: np.ndarray,
+                  floor: np.ndarray) -> np.ndarray:
+        """E^(i) of eq. (2) for particles at ``xy`` (N, 2) walking in ``heading`` (N,).
+
+        Particles on a floor without patterns get NaN (no information).
+        """
+        out = np.full(len(xy), np.nan)
+        for fl, (tree, ids) in self._trees.items():
+            on = floor == fl
+            if not on.any():
+                continue
+            _, j = tree.query(xy[on])
+            entries = self.node_entries[ids[j]]                     # (n, width)
+            valid = entries >= 0
+            dh = np.abs(np.angle(np.exp(1j * (heading[on, None] - obs.heading[entries]))))
+            dh[~valid] = np.inf
+            best = entries[np.arange(len(entries)), np.argmin(dh, axis=1)]
+            out[on] = obs.rmse[best]
+        return out
+
+    @staticmethod
+    def sample(obs: Observations, n: int, sigma: float, rng: np.random.Generator
+               ) -> np.ndarray:
+        """``n`` entry indices drawn in proportion to exp(-E / sigma^2) (§IV-E)."""
+        ok = np.flatnonzero(np.isfinite(obs.rmse))
+        logp = -obs.rmse[ok] / sigma ** 2
+        w = np.exp(logp - logp.max())
+        return ok[rng.choice(len(ok), size=n, p=w / w.sum())]

@@ -1,0 +1,210 @@
+"""The particle filter end to end on synthetic walks with drifting odometry."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firenav_framework import GroundTruth, Odometry
+from firenav_framework.building import bundled_plan, load_building
+from firenav_framework.building.search_patterns import extract_search_patterns
+from firenav_framework.building.sketch import PlanSketch
+from firenav_framework.testing import check_plugin, make_component
+from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcp
+from firenav_plugins.constraints.wall_crossing import WallCrossing
+from firenav_plugins.estimators.particle_filter import (ParticleConstraint, ParticleFilter,
+                                                       Particles)
+from firenav_plugins.estimators.particle_filter.map_error import SpreadMonitor
+from tests.pf.synthetic import drifting_walk
+
+
+@pytest.fixture(scope="module")
+def flat():
+    return load_building(bundled_plan("flat_125"))
+
+
+@pytest.fixture(scope="module")
+def search_walk(flat):
+    """Two laps of a right-hand search of flat_125 (about 235 m, 6.7 min)."""
+    sp = extract_search_patterns(flat)
+    loop = sp.positions(sp.sequence("right_hand"))
+    return drifting_walk(np.vstack([loop, loop, loop[:1]]), seed=11, drift_deg_per_min=8.0,
+                         scale=1.04)
+
+
+def run(building, walk, params, constraints=()):
+    pf, rec, stats = make_component(ParticleFilter, params, building=building)
+    for k, (cls, p) in enumerate(constraints):
+        c, _, _ = make_component(cls, p, building=building, cid=f"c{k}")
+        c.start()
+        pf.constraints.append(c)
+    pf.start()
+    for stream, msg in walk.messages():
+        pf.handle(stream, msg)
+    pf.finish()
+    return rec, stats.counts["under_test"]
+
+
+def errors(poses, walk):
+    t = np.array([p.t for p in poses])
+    est = np.array([p.position[:2] for p in poses])
+    tt = np.array([g.t for g in walk.truth])
+    truth = np.column_stack([np.interp(t, tt, walk.truth_xy[:, 0]),
+                             np.interp(t, tt, walk.truth_xy[:, 1])])
+    return t, np.hypot(*(est - truth).T)
+
+
+def dead_reckoning_errors(walk):
+    """Odometry alone, aligned to the true start pose and first-step direction."""
+    ins = np.array([np.zeros(3)] + [o.position for o in walk.odometry])[:, :2]
+    truth = walk.truth_xy
+    a = (math.atan2(*(truth[1] - truth[0])[::-1]) - math.atan2(*(ins[1] - ins[0])[::-1]))
+    r = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    return np.hypot(*(((ins - ins[0]) @ r.T + truth[0]) - truth).T)[1:]
+
+
+def test_walls_beat_odometry_alone_from_a_known_start(flat, search_walk):
+    rec, counts = run(flat, search_walk, {"particles": 300, "init": "truth", "seed": 1},
+                      [(WallCrossing, {})])
+    _, err = errors(rec.on("pose"), search_walk)
+    dr = dead_reckoning_errors(search_walk)
+    rmse, dr_rmse = math.sqrt(np.mean(err ** 2)), math.sqrt(np.mean(dr ** 2))
+    assert dr_rmse > 2.0            # the drift model really does drift
+    assert rmse < 0.5 * dr_rmse and rmse < 1.0
+    assert counts["replaced_particles"] > 0
+
+
+def test_search_patterns_find_an_unknown_start_where_walls_alone_do_not(flat, search_walk):
+    """§V-C, Fig. 8 (b): without prior on the start, the conventional filter (walls only)
+    loses itself; with pseudo-observations and resampling it settles to about 1 m."""
+    params = {"particles": 500, "init": "unknown", "seed": 2}
+    rec, counts = run(flat, search_walk, params, [(WallCrossing, {}), (SearchPatternIcp, {})])
+    walls_only, _ = run(flat, search_walk, params, [(WallCrossing, {})])
+    poses = rec.on("pose")
+    t, err = errors(poses, search_walk)
+    late = t > t[0] + 150.0       # the paper's ~2.5 min settling time
+    rmse = math.sqrt(np.mean(err[late] ** 2))
+    t2, err2 = errors(walls_only.on("pose"), search_walk)
+    rmse_walls = math.sqrt(np.mean(err2[t2 > t2[0] + 150.0] ** 2))
+    assert rmse < 1.2 and rmse_walls > 3 * rmse
+    assert np.mean([p.trusted for p, keep in zip(poses, late) if keep]) > 0.9
+    assert not poses[0].trusted   # spread over the whole flat at first
+    assert counts["injected_particles"] > 0
+
+
+class Disturb(ParticleConstraint):
+    """Scatters the cloud over a 10 m square at t1 and gathers it again at t2."""
+
+    name = "disturb"
+
+    def __init__(self, params, ctx, t1=20.0, t2=40.0):
+        super().__init__(params, ctx)
+        self.t1, self.t2 = t1, t2
+
+    def replacements(self, step):
+        n = len(step.particles)
+        if step.t >= self.t1 and not hasattr(self, "spread"):
+            self.spread = True
+            return Particles.create(step.rng.uniform(0, 10, (n, 2)), step.particles.yaw)
+        if step.t >= self.t2 and not hasattr(self, "gathered"):
+            self.gathered = True
+            return Particles.create(np.full((n, 2), 5.0), step.particles.yaw)
+        return None
+
+
+def straight_walk(n=60, agent="ff1"):
+    out, pos = [], np.zeros(3)
+    for k in range(1, n + 1):
+        delta = np.array([0.05, 0.0, 0.0])
+        pos = pos + delta
+        out.append(Odometry(t=float(k), agent=agent, t_start=k - 1.0, delta=delta, dheading=0.0,
+                            cov=np.eye(4) * 1e-4, position=pos.copy(), heading=0.0))
+    return out
+
+
+def test_map_error_diagnostic_fires_above_3_m2_and_clears(flat):
+    pf, rec, _ = make_component(ParticleFilter, {"init": "known", "start": (5.0, 5.0, 0.0)},
+                                building=flat)
+    pf.constraints.append(make_component(Disturb, {}, building=flat, cid="disturb")[0])
+    for msg in straight_walk():
+        pf.handle("odo", msg)
+    diags = [(d.t, d.code, d.level, d.active) for d in rec.on("diagnostics")]
+    assert diags == [(20.0, "map_error", "warning", True), (40.0, "map_error", "info", False)]
+    trusted = {p.t: p.trusted for p in rec.on("pose")}
+    spread = {p.t: p.cov[0, 0] + p.cov[1, 1] for p in rec.on("pose")}
+    assert spread[20.0] > 3.0 and spread[19.0] < 3.0 and spread[40.0] < 3.0
+    assert trusted[19.0] and not trusted[20.0] and not trusted[39.0] and trusted[40.0]
+
+
+def test_spread_monitor_periods():
+    """§V-E: converging, converged, disturbed (map error), converged again."""
+    m = SpreadMonitor(3.0)
+    seq = [10.0, 5.0, 2.9, 1.0, 3.5, 8.0, 2.0, 4.0]
+    events = [m.update(v) for v in seq]
+    assert events == [None, None, None, None, "map_error", None, "recovered", "map_error"]
+    hyst = SpreadMonitor(3.0, clear_m2=1.0)
+    assert [hyst.update(v) for v in (0.5, 4.0, 2.0, 0.9)] == [None, "map_error", None, "recovered"]
+
+
+def test_bad_odometry_is_counted_and_skipped(flat):
+    pf, rec, stats = make_component(ParticleFilter, {"init": "known", "start": (5, 5, 0)},
+                                    building=flat)
+    good = straight_walk(3)
+    bad = Odometry(t=2.5, agent="ff1", t_start=2.0, delta=np.array([np.nan, 0, 0]), dheading=0.0,
+                   cov=np.eye(4), position=np.zeros(3), heading=0.0)
+    for msg in (good[0], good[1], bad, good[1], good[2]):
+        pf.handle("odo", msg)
+    counts = stats.counts["under_test"]
+    assert counts["bad_odometry_skipped"] == 1
+    assert counts["odometry_out_of_order_skipped"] == 1
+    assert len(rec.on("pose")) == 3
+
+
+def test_configuration_errors_are_specific(flat):
+    with pytest.raises(ValueError, match="init: known needs start"):
+        make_component(ParticleFilter, {"init": "known"}, building=flat)
+    pf, _, _ = make_component(ParticleFilter, {"init": "entrance", "entrance": "back_door"},
+                              building=flat)
+    with pytest.raises(ValueError, match="no entrance 'back_door'"):
+        pf.handle("odo", straight_walk(1)[0])
+
+
+def test_entrance_start_and_truth_start(flat):
+    rec, _ = run(flat, drifting_walk(np.array([[0.5, 4.9], [6.0, 4.9]]), seed=3),
+                 {"init": "entrance", "particles": 200})
+    first = rec.on("pose")[0]
+    assert np.hypot(*(first.position[:2] - [0.0, 4.9])) < 1.5
+    walk = drifting_walk(np.array([[3.0, 2.0], [3.0, 3.5]]), seed=3)
+    rec, _ = run(flat, walk, {"init": "truth", "particles": 200})
+    assert np.hypot(*(rec.on("pose")[0].position[:2] - walk.truth_xy[1])) < 0.5
+
+
+def test_floor_changes_on_the_stair():
+    sk = PlanSketch("stairs")
+    for level in range(2):
+        f = sk.floor(3.0 * level, 3.0)
+        f.room(f"r{level}", (0, 0, 10, 4))
+    sk.floors[0].stair("s", [(2, 2), (8, 2)], floor_to=1, width=1.2)
+    b = sk.build()
+    pf, rec, _ = make_component(ParticleFilter, {"init": "known", "start": (1.5, 2.0, 0.0),
+                                                 "particles": 200, "position_noise_m": 0.02},
+                                building=b)
+    pos = np.zeros(3)
+    for k in range(1, 9):            # 8 x 0.8 m up the 6 m stair, rising 3 m
+        delta = np.array([0.8, 0.0, 0.4 if 1 < k < 9 else 0.0])
+        pos = pos + delta
+        pf.handle("odo", Odometry(t=float(k), agent="ff1", t_start=k - 1.0, delta=delta,
+                                  dheading=0.0, cov=np.eye(4) * 1e-4, position=pos.copy(),
+                                  heading=0.0))
+    floors = [p.floor for p in rec.on("pose")]
+    assert floors[0] == 0 and floors[-1] == 1
+    assert rec.on("pose")[-1].position[2] == pytest.approx(3.0, abs=0.5)
+
+
+def test_plugin_conformance(flat):
+    check_plugin(ParticleFilter, {"particles": 50}, sample_input=[("odo", m) for m in straight_walk(4)]
+                 + [("truth", GroundTruth(t=5.0, agent="ff1", position=np.zeros(3)))],
+                 building=flat)
+    check_plugin(WallCrossing, building=flat)
+    check_plugin(SearchPatternIcp, building=flat)
