@@ -34,7 +34,7 @@ from .geojson_format import DEFAULT_FLOOR_HEIGHT, parse_geojson
 from .model import Building, BuildingError
 from .sketch import FloorSketch
 
-__all__ = ["is_aamks", "parse_aamks", "CM"]
+__all__ = ["is_aamks", "parse_aamks", "door_feature_from_rectangle", "CM"]
 
 #: Aamks length unit in metres (centimetres).
 CM = 0.01
@@ -128,7 +128,9 @@ def _floor_keys(where: str, floors: dict) -> list[str]:
     return sorted(floors, key=key)
 
 
-def _door_feature(kind: str, ident: str, floor: int, poly: Polygon) -> dict:
+def door_feature_from_rectangle(kind: str, ident: str, floor: int, poly: Polygon) -> dict:
+    """Native door/opening feature from a door rectangle: width = long side, axis = short side
+    (pointing to +x, or +y when the axis is vertical)."""
     centre, along, long, _ = _rectangle(poly)
     jambs = [centre - along * long / 2, centre + along * long / 2]
     # Keep the jamb order so the axis (left normal of jamb 1 -> 2) points to +x / +y.
@@ -177,7 +179,7 @@ def _read_static(data: dict, where: str, notes: list[str]) -> list[dict]:
         for name, door in (fl.get("doors") or {}).items():
             kind = _DOOR_TYPES.get(door.get("type_sec", "DOOR"), "door")
             poly = _polygon(f"{at}.doors[{name!r}]", door.get("points"))
-            feats.append(_door_feature(kind, f"{name}@{key}", i, poly))
+            feats.append(door_feature_from_rectangle(kind, f"{name}@{key}", i, poly))
         n_walls = n_obst = 0
         for k, raw in enumerate(fl.get("obstacles") or []):
             poly = _polygon(f"{at}.obstacles[{k}]", raw)
@@ -222,7 +224,7 @@ def _read_cad(data: dict, where: str, notes: list[str]) -> list[dict]:
         for t, kind in _DOOR_TYPES.items():
             for k, item in enumerate(fl.get(t) or []):
                 poly = _polygon(f"{at}.{t}[{k}]", item.get("points"))
-                door = _door_feature(kind, f"{t.lower()}{item.get('idx', k)}@{key}", i, poly)
+                door = door_feature_from_rectangle(kind, f"{t.lower()}{item.get('idx', k)}@{key}", i, poly)
                 a, b = np.asarray(door["geometry"]["coordinates"])
                 d = b - a
                 sk.door(door["properties"]["id"], tuple((a + b) / 2), float(np.hypot(*d)),

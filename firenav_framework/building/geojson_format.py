@@ -22,7 +22,7 @@ from .georef import GeoRef
 from .model import (Anchor, Building, BuildingError, Door, Entrance, Floor, Obstacle, Room,
                     Stair)
 
-__all__ = ["read_geojson", "parse_geojson", "write_geojson", "building_from_features", "KINDS",
+__all__ = ["read_geojson", "parse_geojson", "write_geojson", "dump_plan", "building_from_features", "KINDS",
            "DEFAULT_FLOOR_HEIGHT"]
 
 KINDS = ("floor", "wall", "door", "opening", "room", "stair", "obstacle", "anchor",
@@ -412,4 +412,11 @@ def write_geojson(building: Building, path: str | Path) -> None:
         feats.append(_feature("georef", {"type": "Point", "coordinates": [0.0, 0.0]},
                               lat=g.lat, lon=g.lon, bearing_deg=g.bearing))
     doc = {"type": "FeatureCollection", "name": building.name, "features": feats}
-    Path(path).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    Path(path).write_text(dump_plan(doc), encoding="utf-8")
+
+
+def dump_plan(doc: dict) -> str:
+    """A plan FeatureCollection as JSON text with one feature per line (readable diffs)."""
+    head = {k: v for k, v in doc.items() if k != "features"}
+    lines = ",\n".join(json.dumps(f) for f in doc["features"])
+    return json.dumps(head)[:-1] + ', "features": [\n' + lines + "\n]}\n"

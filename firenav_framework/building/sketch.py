@@ -16,7 +16,7 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, Polygon, box
 
-from .geojson_format import parse_geojson
+from .geojson_format import dump_plan, parse_geojson
 from .model import Building
 
 __all__ = ["PlanSketch", "FloorSketch"]
@@ -169,4 +169,4 @@ class PlanSketch:
         return parse_geojson(self.geojson(), where=f"<sketch {self.name}>", default_name=self.name)
 
     def write(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.geojson(), indent=1) + "\n", encoding="utf-8")
+        Path(path).write_text(dump_plan(self.geojson()), encoding="utf-8")
