@@ -176,17 +176,24 @@ class SearchPatterns:
                            last_heading=np.concatenate(h2), floor=np.concatenate(fl),
                            length_m=float(length_m))
 
-    def rings(self) -> dict[int, list[np.ndarray]]:
-        """Per floor, the closed (N + 1, 2) polylines of the right-hand and inner sequences.
-
-        The form :func:`firenav_framework.building.plot.draw_floor` takes as ``patterns``.
-        """
-        out: dict[int, list[np.ndarray]] = {}
+    def draw(self, ax: Any, floor: int = 0, *, grid: bool = True) -> None:
+        """Draw one floor's grid (grey) and the right-hand / inner sequences on matplotlib
+        axes, with an arrow at each sequence's start (used by ``firenav map show --patterns``)."""
+        on = self.node_floor == floor
+        if grid and on.any():
+            from matplotlib.collections import LineCollection
+            e = self.edges[on[self.edges[:, 0]]]
+            ax.add_collection(LineCollection(self.nodes[e], colors="0.8", linewidths=0.4, zorder=6))
+            ax.scatter(*self.nodes[on].T, s=3, color="0.55", zorder=6)
+        colours = {"outer": "#ff7f0e", "inner": "#8c564b"}
         for seq in self.sequences:
-            if seq.hand == "right":
-                p = self.positions(seq)
-                out.setdefault(seq.floor, []).append(np.vstack([p, p[:1]]))
-        return out
+            if seq.floor != floor or seq.hand != "right":
+                continue
+            ring = np.vstack([self.positions(seq), self.positions(seq)[:1]])
+            ax.plot(ring[:, 0], ring[:, 1], "-o", color=colours[seq.kind], ms=2.5, lw=0.8,
+                    alpha=0.85, zorder=7, label=f"{seq.name} ({len(seq)} nodes)")
+            ax.annotate("", xy=ring[1], xytext=ring[0], zorder=8,
+                        arrowprops={"arrowstyle": "-|>", "color": colours[seq.kind], "lw": 1.2})
 
 
 # --------------------------------------------------------------------------- extraction

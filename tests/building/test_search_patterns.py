@@ -144,3 +144,15 @@ def test_bad_arguments_are_refused():
         extract_search_patterns(b.floors[0], entrance=(1.0,))
     with pytest.raises(ValueError, match="length"):
         extract_search_patterns(b).subpatterns(0.0)
+
+
+def test_draw_overlays_each_walked_sequence(patterns):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    patterns.draw(ax, 0)
+    labels = sorted(line.get_label() for line in ax.get_lines())
+    plt.close(fig)
+    assert labels == ["inner_1 (8 nodes)", "right_hand (20 nodes)"]
