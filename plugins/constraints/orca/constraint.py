@@ -1,0 +1,292 @@
+"""ORCA collision-avoidance map matching as a constraint on dead-reckoned odometry.
+
+Implements §2.2 of the ORCA map-matching paper (Algorithm 1, lines 20-24) on the steps
+of ``dead_reckoning``. For each step the agent, a disc at its corrected position, would
+move to the new INS position (eq. 7 velocity). If that move collides with a wall
+(or with a team member, optionally), the ORCA half-planes of the nearby walls give the
+set of collision-free velocities (eqs. 3-6), and the paper's rules read the angle at
+which the step meets the wall it touches first:
+
+* up to ``max_rotation`` (30 deg): a heading error. ORCA's correction angle theta (the
+  smallest rotation of the INS velocity into the collision-free set, Figure 4) is
+  stored in the update matrix (eq. 8) when it is at least ``min_rotation`` (2 deg),
+  rotating this and every later step about the agent's position;
+* within ``door_tolerance`` (15 deg) of 90 deg: the agent went through a door the path
+  missed. It is moved to the door in that wall that best fits the UWB range(s) to the
+  anchor(s) (not simply the nearest door), by a translation in the update matrix;
+* anything else: the wall holds the agent (it moves with the ORCA velocity closest to
+  the INS velocity) and no update is stored;
+* a speed above ``max_speed`` between the corrected agent and the INS position: the
+  agent is in the wrong compartment and is reset to the INS position.
+
+For a sliding contact theta equals that angle; near a wall's end (a door jamb) ORCA can
+slip past the end with a small rotation although the step ran square into the wall,
+which is why the rule is read on the angle of the step to the wall. Two guards, not in
+the paper, keep position errors from being taken for heading errors (they can be
+switched off): no rotation is stored during a turn (``turn_guard``), where the step
+direction is not the walking direction and a lateral offset looks like a heading error
+(the lateral offset is absorbed by a translation instead); and a door is only taken if
+its expected range fits the measured one within ``door_range_gate``.
+
+Ranges come from the constraint's own input (``Range`` messages, e.g. the ``uwb``
+sensor's ``range`` port); the anchors' positions from the building.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from firenav_framework import Constraint, Params, PerAgent, Range, param
+from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, StepCorrection
+
+from .doors import DoorTable, RangeFix
+from .step_solver import FREE, WallGrid
+
+__all__ = ["OrcaConstraint", "classify_rotation", "approach_angle", "line_crossing"]
+
+#: Angles this close to a threshold [rad] count as on it (bands are inclusive).
+_ANGLE_EPS = 1e-9
+
+
+def approach_angle(move: np.ndarray, wall: np.ndarray) -> float:
+    """Angle [rad] in [0, pi/2] between a step (2,) and a wall segment (2, 2)."""
+    e = wall[1] - wall[0]
+    c = abs(float(move[0] * e[0] + move[1] * e[1]))
+    s = abs(float(move[0] * e[1] - move[1] * e[0]))
+    return math.atan2(s, c)
+
+
+def line_crossing(pos: np.ndarray, move: np.ndarray, wall: np.ndarray) -> float:
+    """Fraction in [0, 1] of the step ``pos`` -> ``pos + move`` where it meets the wall's
+    line (1 when it stops short of it)."""
+    e = wall[1] - wall[0]
+    n = np.array([-e[1], e[0]])
+    h0 = float((pos - wall[0]) @ n)
+    dh = float(move @ n)
+    if h0 * dh >= 0.0 or dh == 0.0:
+        return 0.0 if h0 == 0.0 else 1.0
+    return min(1.0, -h0 / dh)
+
+
+def classify_rotation(theta: float, min_rotation: float, max_rotation: float,
+                      door_angle: float, door_tolerance: float) -> str:
+    """The paper's reading of a correction angle ``theta`` [rad] (§2.2).
+
+    ``"rotation"`` for a heading error to store (min..max), ``"door"`` for a missed door
+    (door_angle +- door_tolerance), ``"small"`` below min, ``"blocked"`` otherwise
+    (and for NaN: no rotation at the walking speed avoids the walls).
+    """
+    a = abs(theta)
+    if math.isnan(a):
+        return "blocked"
+    if a < min_rotation - _ANGLE_EPS:
+        return "small"
+    if a <= max_rotation + _ANGLE_EPS:
+        return "rotation"
+    if abs(a - door_angle) <= door_tolerance + _ANGLE_EPS:
+        return "door"
+    return "blocked"
+
+
+@dataclass
+class _Agent:
+    ranges: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # anchor -> (t, r, sigma)
+    position: np.ndarray | None = None      # last corrected position (2,)
+    velocity: np.ndarray | None = None      # last velocity (2,) [m/s]
+    t: float | None = None
+    last_dheading: float = 0.0              # INS heading change of the previous step [rad]
+
+
+class OrcaConstraint(Constraint):
+    """ORCA collision-avoidance velocity map matching of dead-reckoned steps (rotation, door, reset rules)."""
+
+    name = "orca"
+    inputs = (Range,)
+    requires = frozenset({"odometry_correction"})
+    needs_building = True
+
+    class Params(Params):
+        radius: float = param(0.25, unit="m", gt=0, description="agent disc radius r_n "
+                              "(the paper does not state its value)")
+        time_horizon: float = param(2.0, unit="s", gt=0, description="obstacle time horizon "
+                                    "tau of the velocity obstacle (eq. 3); never below the "
+                                    "step duration")
+        min_rotation: float = param(math.radians(2.0), unit="rad", ge=0, description="smallest "
+                                    "correction stored in the update matrix (2 deg, §2.2)")
+        max_rotation: float = param(math.radians(30.0), unit="rad", gt=0, description="largest "
+                                    "correction taken as a heading error (30 deg, §2.2)")
+        door_angle: float = param(math.radians(90.0), unit="rad", gt=0, description="correction "
+                                  "angle that means a missed door (90 deg, §2.2)")
+        door_tolerance: float = param(math.radians(15.0), unit="rad", ge=0, description="+- band "
+                                      "around door_angle (15 deg, §2.2)")
+        max_speed: float = param(2.5, unit="m/s", gt=0, description="speed between the corrected "
+                                 "and the INS position above which the agent is in the wrong "
+                                 "compartment and is reset (\"unnatural for humans\", §2.2)")
+        door_search_radius: float = param(4.0, unit="m", gt=0, description="doors farther than "
+                                          "this from the agent are not candidates")
+        door_line_tolerance: float = param(0.3, unit="m", gt=0, description="a candidate "
+                                           "door's centre lies this close to the line of the "
+                                           "wall the step ran into")
+        door_range_gate: float = param(2.0, unit="m", gt=0, description="a door is taken "
+                                       "only if its expected range to each anchor is within "
+                                       "this of the measured range (plus 3 sigma)")
+        turn_guard: float | None = param(math.radians(30.0), unit="rad", gt=0, description=
+                                         "no rotation is stored while the INS heading turned "
+                                         "more than this over the last two steps (null: off)")
+        range_max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this "
+                                     "are not used to choose a door")
+        tag_height: float = param(1.0, unit="m", description="height of the UWB tag above the "
+                                  "floor, for expected ranges to anchors")
+        avoid_team: bool = param(False, description="team members are ORCA agents that avoid "
+                                 "each other (reciprocal lines, §2.2)")
+        team_time_horizon: float = param(2.0, unit="s", gt=0, description="time horizon for "
+                                         "agent-agent avoidance")
+        team_max_age: float = param(2.0, unit="s", gt=0, description="team members not updated "
+                                    "for this long are ignored")
+
+    def __init__(self, params: Params, ctx):
+        super().__init__(params, ctx)
+        self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
+        self._grids: dict[int, WallGrid] = {}
+        self._doors: dict[int, DoorTable] = {}
+        self._anchors: dict[str, np.ndarray] = {}
+
+    def start(self) -> None:
+        building = self.ctx.building
+        self._building = building
+        self._anchors = {a.id: np.asarray(a.position, float) for a in building.anchors}
+
+    def reset(self, agent: str) -> None:
+        self.agents.reset(agent)
+
+    # -- ranges ---------------------------------------------------------------------
+    def handle(self, stream: str, msg: Range) -> None:
+        if not isinstance(msg, Range):
+            return
+        anchor = msg.b if msg.b in self._anchors else msg.a if msg.a in self._anchors else None
+        if anchor is None:
+            self.ctx.count("ranges_unknown_anchor")
+            return
+        if not (math.isfinite(msg.range_m) and msg.range_m >= 0 and msg.sigma_m > 0):
+            self.ctx.count("ranges_invalid")
+            return
+        self.agents[msg.agent].ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
+
+    def _fresh_ranges(self, agent: _Agent, t: float) -> list[RangeFix]:
+        return [RangeFix(self._anchors[a], r, s) for a, (tr, r, s) in sorted(agent.ranges.items())
+                if abs(t - tr) <= self.params.range_max_age]
+
+    # -- the odometry_correction protocol ----------------------------------------------
+    def correct(self, step: OdometryStep) -> StepCorrection | None:
+        p = self.params
+        me = self.agents[step.agent]
+        turning = (p.turn_guard is not None and abs(step.odometry.dheading)
+                   + abs(me.last_dheading) > p.turn_guard)
+        me.last_dheading = step.odometry.dheading
+        pos, target = step.prev[:2].copy(), step.proposed[:2].copy()
+        floor_idx = int(self._building.floor_of_z(step.prev[2]))
+        if math.hypot(*(target - pos)) > p.max_speed * step.dt:
+            # Wrong compartment: the agent lags implausibly far behind the INS (§2.2).
+            return self._record(me, step, StepCorrection(position=step.proposed.copy(),
+                                                         jump=True, event="orca_reset"))
+        grid = self._grid(floor_idx)
+        code, v_orca, theta, wall, frac = grid.step(pos, target, step.dt, p.radius,
+                                                    p.time_horizon, p.team_time_horizon,
+                                                    *self._team(step))
+        if code == FREE:
+            return self._record(me, step, None)
+        move = target - pos
+        angle = theta if wall < 0 else approach_angle(move, grid.segs[wall])
+        kind = classify_rotation(angle, p.min_rotation, p.max_rotation, p.door_angle,
+                                 p.door_tolerance)
+        if kind == "door":
+            fix = self._door(me, step, floor_idx, grid, pos, move, wall) if wall >= 0 else None
+            if fix is not None:
+                return self._record(me, step, fix)
+            kind = "blocked"
+        if turning:
+            # During a turn the step direction is not the walking direction, and a wall
+            # contact tells of a position offset rather than a heading error: slide, and
+            # move the INS path with the agent so that the offset does not later pass
+            # for a heading error or a wrong compartment.
+            moved = pos + step.dt * v_orca
+            return self._record(me, step, StepCorrection(
+                position=_with_z(moved, step), update=Rigid2D.translation(moved - target),
+                event="orca_turn_slide"))
+        if kind in ("small", "rotation") and not abs(theta) <= p.max_rotation:
+            kind = "blocked"          # a shallow contact no small rotation avoids (a corner)
+        if kind == "blocked":
+            return self._record(me, step, StepCorrection(
+                position=_with_z(pos + step.dt * v_orca, step), event="orca_blocked"))
+        c, s = math.cos(theta), math.sin(theta)
+        moved = pos + np.array([c * move[0] - s * move[1], s * move[0] + c * move[1]])
+        if abs(theta) < p.min_rotation:
+            return self._record(me, step, StepCorrection(position=_with_z(moved, step),
+                                                         event="orca_small"))
+        return self._record(me, step, StepCorrection(
+            position=_with_z(moved, step), update=Rigid2D.rotation_about(theta, pos),
+            event="orca_rotation"))
+
+    def _door(self, me: _Agent, step: OdometryStep, floor_idx: int, grid: WallGrid,
+              pos: np.ndarray, move: np.ndarray, wall: int) -> StepCorrection | None:
+        """Missed-door rule: translate the path so that it crosses the chosen door."""
+        p = self.params
+        doors = self._doors.get(floor_idx)
+        if doors is None:
+            doors = self._doors[floor_idx] = DoorTable(self._building.floors[floor_idx])
+        seg = grid.segs[wall]
+        f = line_crossing(pos, move, seg)
+        crossing = pos + f * move
+        ranges = self._fresh_ranges(me, step.t)
+        tag_z = self._building.floors[floor_idx].z + p.tag_height
+        k = doors.choose(crossing, move, seg, ranges, tag_z, p.door_search_radius,
+                         p.door_line_tolerance)
+        if k is None:
+            self.ctx.count("orca_door_none")
+            return None
+        worst = doors.range_misfit(k, ranges, tag_z)
+        if worst > p.door_range_gate:
+            self.ctx.count("orca_door_range_misfit")
+            return None
+        door = doors.centers[k]
+        rest = (1.0 - f) * move
+        # cross the door along the step; stop in the doorway if that is blocked
+        end = door + rest if not grid.blocked(door, door + rest, p.radius) else door.copy()
+        return StepCorrection(position=_with_z(end, step),
+                              update=Rigid2D.translation(door - crossing),
+                              jump=True, event="orca_door")
+
+    # -- team -------------------------------------------------------------------------
+    def _team(self, step: OdometryStep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p = self.params
+        pos, vel = [], []
+        if p.avoid_team:
+            for name, other in self.agents.items():
+                if name == step.agent or other.position is None or other.t is None:
+                    continue
+                if abs(step.t - other.t) <= p.team_max_age:
+                    pos.append(other.position)
+                    vel.append(other.velocity)
+        n = len(pos)
+        return (np.array(pos, float).reshape(n, 2), np.array(vel, float).reshape(n, 2),
+                np.full(n, p.radius))
+
+    def _record(self, me: _Agent, step: OdometryStep, fix: StepCorrection | None
+                ) -> StepCorrection | None:
+        end = (step.proposed if fix is None else fix.position)[:2]
+        me.velocity = (end - step.prev[:2]) / step.dt
+        me.position = np.array(end, float)
+        me.t = step.t
+        return fix
+
+    def _grid(self, floor_idx: int) -> WallGrid:
+        grid = self._grids.get(floor_idx)
+        if grid is None:
+            grid = self._grids[floor_idx] = WallGrid(self._building.floors[floor_idx])
+        return grid
+
+
+def _with_z(xy: np.ndarray, step: OdometryStep) -> np.ndarray:
+    return np.array([xy[0], xy[1], step.proposed[2]])

@@ -1,0 +1,139 @@
+"""dead_reckoning: alignment (eq. 9), integration, covariance, outputs and bad input."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firenav_framework import Odometry
+from firenav_framework.building import Building, Entrance, Floor, bundled_plan, load_building
+from firenav_framework.testing import check_plugin, make_component
+from firenav_plugins.estimators.dead_reckoning import DeadReckoning
+
+YAW = -2.3     # arbitrary INS-frame yaw
+
+
+def ins_steps(path: np.ndarray, yaw: float = YAW, t0: float = 0.0, cov=None, scale=1.0):
+    """Odometry messages (INS frame turned by -yaw) walking through building points ``path``."""
+    c, s = math.cos(-yaw), math.sin(-yaw)
+    d = np.diff(path, axis=0) * scale
+    out, pos = [], np.zeros(3)
+    headings = np.arctan2(d[:, 1], d[:, 0]) - yaw
+    prev_h = headings[0]
+    cov = np.diag([1e-4, 1e-4, 1e-6, 1e-6]) if cov is None else cov
+    for k, (dx, dy) in enumerate(d):
+        delta = np.array([c * dx - s * dy, s * dx + c * dy, 0.0])
+        pos = pos + delta
+        out.append(Odometry(t=t0 + k + 1.0, agent="ff1", device="ff1/imu", t_start=t0 + k,
+                            delta=delta, dheading=headings[k] - prev_h, cov=cov,
+                            position=pos.copy(), heading=headings[k]))
+        prev_h = headings[k]
+    return out
+
+
+L_PATH = np.array([[5.0, 8.4], [6.0, 8.4], [7.0, 8.4], [8.0, 8.4], [8.0, 9.4], [8.0, 10.4]])
+
+
+def run(params, msgs, building=None):
+    dr, rec, stats = make_component(DeadReckoning, params, building=building)
+    dr.start()
+    for m in msgs:
+        dr.handle("odo", m)
+    dr.finish()
+    return rec, stats.counts.get("under_test", {})
+
+
+def test_known_entry_pose_maps_the_ins_frame_onto_the_building():
+    rec, _ = run(dict(alignment="pose", start_position=(5.0, 8.4, 0.0), start_heading=0.0),
+                 ins_steps(L_PATH))
+    poses = rec.on("pose")
+    np.testing.assert_allclose([p.position[:2] for p in poses], L_PATH[1:], atol=1e-12)
+    assert poses[-1].heading == pytest.approx(math.pi / 2)
+    # the corrected odometry is in the building frame and sums to the track
+    odo = rec.on("odometry")
+    np.testing.assert_allclose(np.cumsum([o.delta[:2] for o in odo], axis=0) + L_PATH[0],
+                               L_PATH[1:], atol=1e-12)
+
+
+def test_entrance_alignment_uses_the_buildings_entrance():
+    b = load_building(bundled_plan("corridor"))
+    ent = b.entrances[0]
+    path = ent.position + np.outer(np.arange(4), [math.cos(ent.heading), math.sin(ent.heading)])
+    rec, _ = run({}, ins_steps(path), building=b)
+    np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-12)
+    assert all(p.floor == 0 for p in rec.on("pose"))
+
+
+def test_first_straight_segment_along_a_known_wall_fixes_the_heading():
+    # the entry heading is unknown (None); the first 3 m run along a wall heading 0 rad
+    path = np.array([[5.0, 8.4], [6.5, 8.4], [8.0, 8.4], [9.5, 8.4], [9.5, 9.9]])
+    rec, _ = run(dict(alignment="first_segment", start_position=(5.0, 8.4, 0.0),
+                      align_heading=0.0, align_distance=3.0), ins_steps(path))
+    np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-9)
+
+
+def test_first_segment_with_a_wobble_uses_the_chord():
+    path = np.array([[0.0, 0.0], [1.0, 0.1], [2.0, -0.1], [3.0, 0.0], [3.0, 1.0]])
+    rec, _ = run(dict(alignment="first_segment", start_position=(0.0, 0.0, 0.0),
+                      align_heading=0.0, align_distance=3.0), ins_steps(path))
+    np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-9)
+
+
+def test_covariance_grows_with_distance_as_heading_error_propagates():
+    """Noise-free steps: only the entry uncertainty remains; sideways variance after a
+    straight walk of length D is sigma_p^2 + D^2 sigma_h^2 (small-angle)."""
+    path = np.column_stack([np.arange(11.0), np.zeros(11)])
+    sp, sh = 0.3, 0.05
+    rec, _ = run(dict(alignment="pose", start_position=(0.0, 0.0, 0.0), start_heading=0.0,
+                      start_sigma=sp, start_sigma_heading=sh), ins_steps(path, cov=np.zeros((4, 4))))
+    for k, p in enumerate(rec.on("pose"), 1):
+        assert p.cov[1, 1] == pytest.approx(sp ** 2 + (k * sh) ** 2)
+        assert p.cov[0, 0] == pytest.approx(sp ** 2)
+        assert p.cov[3, 3] == pytest.approx(sh ** 2)
+    # per-step noise adds on top and accumulates
+    rec2, _ = run(dict(alignment="pose", start_position=(0.0, 0.0, 0.0), start_heading=0.0),
+                  ins_steps(path))
+    var = [p.cov[0, 0] for p in rec2.on("pose")]
+    assert all(b > a for a, b in zip(var, var[1:]))
+
+
+def test_gap_in_odometry_is_bridged_from_absolute_positions():
+    msgs = ins_steps(L_PATH)
+    rec, counts = run(dict(alignment="pose", start_position=(5.0, 8.4, 0.0), start_heading=0.0),
+                      msgs[:2] + msgs[3:])
+    np.testing.assert_allclose(rec.on("pose")[-1].position[:2], L_PATH[-1], atol=1e-12)
+    assert counts["gaps_bridged"] == 1
+
+
+def test_bad_and_stale_odometry_is_counted_and_skipped():
+    msgs = ins_steps(L_PATH)
+    bad = Odometry(t=2.5, agent="ff1", t_start=2.0, delta=np.array([np.nan, 0.0, 0.0]),
+                   dheading=0.0, cov=np.eye(4), position=np.zeros(3), heading=0.0)
+    stale = msgs[1]
+    rec, counts = run(dict(alignment="pose", start_position=(5.0, 8.4, 0.0), start_heading=0.0),
+                      msgs[:2] + [bad, stale] + msgs[2:])
+    np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], L_PATH[1:], atol=1e-12)
+    assert counts["bad_odometry"] == 1 and counts["stale_odometry"] == 1
+    assert [d.code for d in rec.on("diagnostics")] == ["bad_odometry"]
+
+
+def test_missing_alignment_inputs_fail_clearly():
+    dr, _, _ = make_component(DeadReckoning, dict(alignment="pose"))
+    with pytest.raises(ValueError, match="start_position and start_heading"):
+        dr.start()
+    dr, _, _ = make_component(DeadReckoning, {})
+    with pytest.raises(ValueError, match="needs a building"):
+        dr.start()
+    b = Building("no_entrance", [Floor(index=0, z=0.0, height=3.0, walls=np.zeros((0, 2, 2)))])
+    dr, _, _ = make_component(DeadReckoning, {}, building=b)
+    dr.start()
+    with pytest.raises(ValueError, match="no entrance"):
+        dr.handle("odo", ins_steps(L_PATH)[0])
+
+
+def test_conforms_to_the_plugin_contract():
+    b = Building("b", [Floor(index=0, z=0.0, height=3.0, walls=np.zeros((0, 2, 2)))],
+                 entrances=[Entrance("e", 0, np.array([1.0, 2.0]), 0.5)])
+    check_plugin(DeadReckoning, {}, sample_input=[("odo", m) for m in ins_steps(L_PATH)],
+                 building=b)

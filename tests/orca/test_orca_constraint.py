@@ -1,0 +1,172 @@
+"""The ORCA constraint on dead-reckoned steps: rotation, door, reset rules, team avoidance.
+
+Each case scripts INS steps (in an INS frame turned by an arbitrary yaw) through
+``dead_reckoning`` with the ``orca`` constraint attached, on small hand-drawn floors,
+and checks the corrected track against what the rules must produce.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firenav_framework import Odometry, Range
+from firenav_framework.building import Anchor, Building, Door, Floor
+from firenav_framework.testing import make_component
+from firenav_plugins.constraints.orca import OrcaConstraint
+from firenav_plugins.estimators.dead_reckoning import DeadReckoning
+
+YAW = 1.1          # the INS frame's arbitrary yaw [rad]
+COV = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
+
+
+def building(walls, doors=(), anchors=()) -> Building:
+    floor = Floor(index=0, z=0.0, height=3.0, walls=np.array(walls, float), doors=list(doors))
+    return Building("test", [floor], anchors=list(anchors))
+
+
+class Walker:
+    """Feeds building-frame step vectors, as the INS (turned by YAW) would report them."""
+
+    def __init__(self, b: Building, start, heading, orca: dict | None = None,
+                 agent: str = "ff1", chain=None):
+        params = dict(alignment="pose", start_position=(*start, 0.0), start_heading=heading)
+        self.dr, self.rec, self.stats = chain or make_component(DeadReckoning, params,
+                                                                building=b)
+        if chain is None:
+            if orca is not None:
+                self.orca, _, self.orca_stats = make_component(OrcaConstraint, orca,
+                                                               building=b)
+                self.orca.start()
+                self.dr.constraints.append(self.orca)
+            self.dr.start()
+        self.agent, self.t = agent, 0.0
+        self.heading = heading - YAW     # INS-frame heading
+        self.pos = np.zeros(3)
+
+    def step(self, dx: float, dy: float, turn: float = 0.0, dt: float = 1.0) -> np.ndarray:
+        c, s = math.cos(-YAW), math.sin(-YAW)
+        d = np.array([c * dx - s * dy, s * dx + c * dy, 0.0])
+        self.pos = self.pos + d
+        self.heading += turn
+        self.t += dt
+        self.dr.handle("odo", Odometry(t=self.t, agent=self.agent, t_start=self.t - dt,
+                                       delta=d, dheading=turn, cov=COV, position=self.pos.copy(),
+                                       heading=self.heading))
+        return self.rec.on("pose")[-1].position
+
+    def range(self, anchor: str, r: float) -> None:
+        self.orca.handle("uwb", Range(t=self.t, agent=self.agent, a=self.agent, b=anchor,
+                                      range_m=r, sigma_m=0.1))
+
+    def counts(self) -> dict:
+        """Rule events counted by the estimator and the constraint."""
+        out = dict(self.stats.counts.get("under_test", {}))
+        if hasattr(self, "orca_stats"):
+            out.update(self.orca_stats.counts.get("under_test", {}))
+        return out
+
+
+WALL = [[[-50.0, 0.0], [50.0, 0.0]]]
+
+
+def test_without_constraints_it_is_the_ins_in_the_building_frame():
+    w = Walker(building(WALL), (1.0, 2.0), 0.3)
+    for _ in range(5):
+        end = w.step(1.3 * math.cos(0.3), 1.3 * math.sin(0.3))
+    np.testing.assert_allclose(end[:2], [1.0 + 6.5 * math.cos(0.3), 2.0 + 6.5 * math.sin(0.3)],
+                               atol=1e-9)
+
+
+def test_heading_10_deg_into_a_wall_is_corrected_for_every_later_step():
+    a = math.radians(10)
+    w = Walker(building(WALL), (0.0, 0.25), -a, orca={})
+    step = (1.3 * math.cos(a), -1.3 * math.sin(a))    # the INS keeps its 10 deg error
+    ends = [w.step(*step) for _ in range(6)]
+    assert w.counts() == {"orca_rotation": 1}
+    # the first step is rotated 10 deg onto the wall (Figure 4); the update matrix turns
+    # every later step by the same 10 deg, so they run along it and never touch it again
+    for k, end in enumerate(ends):
+        np.testing.assert_allclose(end[:2], [(k + 1) * 1.3, 0.25], atol=1e-9)
+    assert w.rec.on("pose")[-1].heading == pytest.approx(0.0, abs=1e-12)
+
+
+def test_rotation_is_not_stored_during_a_turn():
+    a = math.radians(10)
+    w = Walker(building(WALL), (0.0, 0.25), -a, orca={})
+    w.step(1.3 * math.cos(a), -1.3 * math.sin(a), turn=math.radians(40))
+    assert w.counts() == {"orca_turn_slide": 1}
+
+
+DOORS_WALL = [[[-20.0, 0.0], [0.55, 0.0]], [[1.45, 0.0], [2.05, 0.0]], [[2.95, 0.0], [20.0, 0.0]],
+              [[-20.0, 0.0], [-20.0, -6.0]], [[20.0, 0.0], [20.0, -6.0]]]
+DOORS = [Door("A", 0, np.array([1.0, 0.0]), 0.9, np.array([0.0, -1.0])),
+         Door("B", 0, np.array([2.5, 0.0]), 0.9, np.array([0.0, -1.0]))]
+ANCHOR = Anchor("uwb_entrance", "uwb", np.array([10.0, 1.5, 1.0]), 0)
+
+
+@pytest.mark.parametrize("with_range, door", [(False, "A"), (True, "B")])
+def test_missed_door_moves_the_agent_to_the_door_the_range_supports(with_range, door):
+    """The dead-reckoned path turns south 0.8 m west of door A, square into the wall;
+    the firefighter really went through door B, 1.5 m further east."""
+    b = building(DOORS_WALL, DOORS, [ANCHOR])
+    w = Walker(b, (-3.0, 1.0), 0.0, orca={})
+    for _ in range(2):
+        w.step(1.1, 0.0)                              # along the corridor to x = -0.8
+    w.step(0.0, 0.0, turn=-math.pi / 2)               # turn on the spot (stance)
+    w.step(0.0, 0.0)
+    center = {"A": 1.0, "B": 2.5}[door]
+    if with_range:
+        w.range("uwb_entrance", math.hypot(10.0 - 2.5, 1.5 - 0.0))   # tag in door B, 1 m up
+    end = w.step(0.0, -1.3)                           # through the wall, 1 m before the door
+    assert w.counts().get("orca_door") == 1
+    # crossing point moved to the door centre; the rest of the step carries on through it
+    np.testing.assert_allclose(end[:2], [center, -0.3], atol=1e-9)
+    after = w.step(0.0, -1.3)
+    np.testing.assert_allclose(after[:2], [center, -1.6], atol=1e-9)
+
+
+def test_range_that_fits_no_door_keeps_the_agent_out():
+    b = building(DOORS_WALL, DOORS, [ANCHOR])
+    w = Walker(b, (-3.0, 1.0), 0.0, orca={})
+    w.step(2.2, 0.0)
+    w.step(0.0, 0.0, turn=-math.pi / 2)
+    w.step(0.0, 0.0)
+    w.range("uwb_entrance", 30.0)
+    end = w.step(0.0, -1.3)
+    assert w.counts() == {"orca_door_range_misfit": 1, "orca_blocked": 1}
+    assert end[1] >= 0.25 - 1e-9
+
+
+def test_agent_kept_out_of_a_room_is_reset_to_the_ins_position():
+    """No door anywhere: the wall holds the agent while the INS walks on into the room,
+    until the implied speed exceeds max_speed (wrong compartment, §2.2)."""
+    w = Walker(building(WALL), (0.0, 1.0), -math.pi / 2, orca={"max_speed": 2.5})
+    ends = [w.step(0.0, -1.0) for _ in range(4)]
+    events = w.counts()
+    assert events.get("orca_reset") == 1
+    assert ends[0][1] >= 0.25 - 1e-9 and ends[1][1] >= 0.25 - 1e-9
+    np.testing.assert_allclose(ends[-1][:2], [0.0, -3.0], atol=1e-9)   # the INS position
+
+
+def test_team_members_avoid_each_other():
+    """Two firefighters walk head-on along the same line; as ORCA agents they pass."""
+    b = building([[[-50.0, -20.0], [50.0, -20.0]]])
+    for avoid, expect_clear in ((False, False), (True, True)):
+        params = dict(alignment="pose", start_poses={"ff1": (-5.0, 0.0, 0.0, 0.0),
+                                                     "ff2": (5.0, 0.0, 0.0, math.pi)})
+        dr, rec, stats = make_component(DeadReckoning, params, building=b)
+        orca, _, _ = make_component(OrcaConstraint, {"avoid_team": avoid}, building=b)
+        orca.start()
+        dr.constraints.append(orca)
+        dr.start()
+        a = Walker(b, (-5.0, 0.0), 0.0, chain=(dr, rec, stats), agent="ff1")
+        c = Walker(b, (5.0, 0.0), math.pi, chain=(dr, rec, stats), agent="ff2")
+        c.heading = math.pi - YAW
+        gaps = []
+        for _ in range(10):
+            pa = a.step(1.0, 0.0, dt=1.0)
+            pc = c.step(-1.0, 0.0, dt=1.0)
+            gaps.append(np.hypot(*(pa - pc)[:2]))
+        assert (min(gaps) >= 2 * 0.25 - 1e-6) == expect_clear
