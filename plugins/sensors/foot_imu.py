@@ -440,7 +440,8 @@ class FootImuSensor(Sensor):
                 self.ctx.diagnose(block.t, "warning", "imu_axes_check",
                                   f"{dev.device}: at rest gravity reads {z:+.2f} m/s^2 on FLU z "
                                   "(expected about +9.81): check `axes` (a z-down device "
-                                  "needs [x, -y, -z])", agent=dev.agent)
+                                  "needs [x, -y, -z]), unless the foot was upside down "
+                                  "(crawling)", agent=dev.agent)
         if span >= _CHECK_WINDOW_S:
             dev.units_checked = dev.axes_checked = True
         if dev.units_checked and dev.axes_checked:

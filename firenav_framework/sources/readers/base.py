@@ -52,24 +52,20 @@ def imu_blocks(time: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, block_s
                mag: np.ndarray | None = None) -> Iterator[ImuBlock]:
     """Cut sample arrays into consecutive :class:`ImuBlock` pieces of about ``block_s``.
 
-    Blocks follow the sample order (a recording's own order, even where its time
-    steps back: judging samples is the sensor plugin's job, not the reader's).
-    A block starts at every multiple of ``block_s`` after the first sample time;
-    non-finite times stay in the block they arrive in. Arrays are ``(N,)`` and
-    ``(N, 3)``, SI units, in the axes named by ``frame``.
+    Each piece holds ``block_s`` over the median sample interval samples, in the
+    recording's own order: a corrupt or repeated timestamp then stays inside a block
+    instead of starting one of its own (judging samples is the sensor plugin's job,
+    not the reader's). Arrays are ``(N,)`` and ``(N, 3)``, SI units, in the axes
+    named by ``frame``.
     """
     n = len(time)
     if n == 0:
         return
-    t0 = time[np.isfinite(time)][0] if np.isfinite(time).any() else 0.0
-    slot = np.floor((time - t0) / block_s)
-    # a sample whose slot differs from its predecessor's starts a new block; NaN
-    # times never start one (NaN != x is True, so mask them explicitly)
-    starts = np.flatnonzero((slot[1:] != slot[:-1]) & np.isfinite(slot[1:])) + 1
-    bounds = np.concatenate(([0], starts, [n]))
-    for a, b in zip(bounds[:-1], bounds[1:]):
-        if b <= a:
-            continue
+    steps = np.diff(time)
+    steps = steps[np.isfinite(steps) & (steps > 0)]
+    per = max(1, int(round(block_s / float(np.median(steps))))) if steps.size else n
+    for a in range(0, n, per):
+        b = min(a + per, n)
         yield ImuBlock(t=_block_time(time[a:b]), agent=agent, device=device,
                        time=time[a:b], accel=accel[a:b], gyro=gyro[a:b],
                        mag=None if mag is None else mag[a:b], frame=frame)

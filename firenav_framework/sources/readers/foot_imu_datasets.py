@@ -94,8 +94,8 @@ class IndoorWalk:
     """One indoor walk as arrays.
 
     ``ts`` (N,) [s] from 0; ``imu`` (N, 6) as in :class:`ViconTrial` (device frame,
-    z down); ``stride_index`` (K,) **0-based** sample index of each stride (checked:
-    ``traj_wcf[strideIndex]`` equals the file's ``reconstructed_traj_wcf``);
+    z down); ``stride_index`` (K,) **0-based** sample index of each stride (checked on
+    walk 31, whose ``traj_wcf[strideIndex]`` equals its ``reconstructed_traj_wcf``);
     ``gcp`` (K, 2) surveyed footprint [m] at each stride, the ground truth;
     ``pyshoe`` (N, 2) PyShoe's stored trajectory [m]; ``theta``, ``theta_pyshoe``,
     ``theta_gcp`` the stored heading offsets [rad]; ``traveled_distance`` [m] and

@@ -89,14 +89,16 @@ class ImuCsvReader:
                 if ln.strip() and not ln.lstrip().startswith("#")]
         width = len(self.columns)
         good = [r for r in rows if len(r) == width]
-        self.options.count("bad_rows", len(rows) - len(good))
+        if len(good) < len(rows):
+            self.options.count("bad_rows", len(rows) - len(good))
         if not good:
             return []
         table = np.array(good, dtype=str)
         col = {name: i for i, name in enumerate(self.columns)}
         numeric = [col[c] for c in NUMERIC] + ([col[c] for c in MAG] if "mx" in col else [])
         values, ok = _parse_floats(table[:, numeric])
-        self.options.count("bad_rows", int((~ok).sum()))
+        if not ok.all():
+            self.options.count("bad_rows", int((~ok).sum()))
         table, values = table[ok], values[ok]
         if not len(values):
             return []
