@@ -113,7 +113,17 @@ def main() -> None:
         rate = [args.moves / x for x in (t_ours, t_np, t_sh)]
         print(f"{args.moves:8d} {step:5.1f}m {ours.mean():8.1%}  {rate[0]:11.3g}/s {rate[1]:15.3g}/s "
               f"{rate[2]:15.3g}/s  {t_np / t_ours:12.0f}x {t_sh / t_ours:9.1f}x")
-    print("(median of repeated runs; all three answers identical)")
+    pts = floor.sample_free(args.moves, rng)
+    t_near, (d_ours, _, _) = timed(lambda: floor.nearest_wall(pts), args.repeat)
+    t_shn, (_, d_sh) = timed(lambda: tree.query_nearest(shapely.points(pts), return_distance=True,
+                                                         all_matches=False), args.repeat)
+    if not np.allclose(d_ours, d_sh, rtol=0, atol=1e-9):
+        raise SystemExit("nearest-wall distances differ from shapely")
+    t_first, _ = timed(lambda: floor.first_wall_hit(p0, p1), args.repeat)
+    print(f"nearest_wall: ours {args.moves / t_near:.3g} points/s, shapely query_nearest "
+          f"{args.moves / t_shn:.3g} points/s ({t_shn / t_near:.1f}x); first_wall_hit (3 m moves): "
+          f"ours {args.moves / t_first:.3g} moves/s")
+    print("(median of repeated runs; answers identical across methods)")
 
 
 if __name__ == "__main__":

@@ -139,3 +139,34 @@ def test_building_errors():
     sk.anchor("base", (0, 0))                      # duplicate id
     with pytest.raises(BuildingError, match="duplicate id 'base'"):
         sk.build()
+
+
+def test_first_wall_hit_on_a_floor(plan):
+    f = plan.floor(0)
+    # From room A east through the partition (x = 4) and on through the east wall (x = 8).
+    hit, frac, wall = f.first_wall_hit(np.array([[1.0, 2.5], [1.0, 1.5]]), np.array([[9.0, 2.5], [9.0, 1.5]]))
+    assert hit.tolist() == [True, True]
+    assert frac.tolist() == pytest.approx([3 / 8, 7 / 8])      # partition; then, via the door, the east wall
+    assert f.walls[wall[0]][:, 0].tolist() == [4, 4] and f.walls[wall[1]][:, 0].tolist() == [8, 8]
+
+
+def test_door_crossings_match_a_naive_scan():
+    """Random walks through flat_125 against an independent per-step, per-door scan."""
+    from shapely.geometry import LineString
+    b = load_building(bundled_plan("flat_125"))
+    f = b.floor(0)
+    rng = np.random.default_rng(7)
+    path = np.cumsum(rng.normal(0, 0.8, (1000, 2)), axis=0) % [12.5, 10.0]
+    path = np.repeat(path, 2, axis=0)[1:]            # also zero-length steps
+    expected = []
+    for i in range(len(path) - 1):
+        step = LineString(path[i:i + 2]) if not np.allclose(path[i], path[i + 1]) else None
+        hits = []
+        for d in f.doors:
+            sa, sb = (path[i] - d.center) @ d.axis, (path[i + 1] - d.center) @ d.axis
+            if step is not None and (sa >= 0) != (sb >= 0) and step.intersects(LineString(d.jambs)):
+                hits.append((sa / (sa - sb), d.id, 1 if sb >= 0 else -1))
+        expected += [(i, door, sign) for _, door, sign in sorted(hits)]
+    got = f.door_crossings(path)
+    assert len(expected) > 20
+    assert got == expected
