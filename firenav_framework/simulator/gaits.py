@@ -1,0 +1,98 @@
+"""Ways of moving (gaits) and the people who move (person variation).
+
+Defaults come from gait literature and the reference papers: normal walking at
+1.3 m/s with a 1.4 m stride; careful walking in smoke at 0.3-0.8 m/s (the issue; the
+breadcrumb paper's "trail step", Sec. V-C); searching at about 0.4 m/s; knee-walking
+and crawling far slower with the foot kept low and long stances; stairs one step per
+foot (a stride spans two treads), descended forwards or backwards (search-pattern
+paper Sec. II; RFID paper, gait classes FW/SC/SDF/SDB). A scenario may override any
+field per gait name or add gaits of its own.
+"""
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+Posture = Literal["stand", "kneel"]
+
+
+class Gait(BaseModel):
+    """The foot motion of one way of moving (per stride of the instrumented foot)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    speed: float = Field(1.3, gt=0, le=4.0, description="walking speed along the path [m/s]")
+    stride: float = Field(1.4, gt=0.05, le=2.5,
+                          description="stride length of one foot at this speed [m]")
+    swing_s: float = Field(0.70, gt=0.2, le=3.0,
+                           description="swing duration: heel-off to foot-flat [s]")
+    clearance: float = Field(0.12, ge=0, le=0.5, description="foot (IMU) lift at mid-swing [m]")
+    toe_off_deg: float = Field(45.0, ge=0, le=80, description="toe-down pitch at toe-off")
+    heel_strike_deg: float = Field(20.0, ge=0, le=45, description="toe-up pitch before contact")
+    roll_deg: float = Field(4.0, ge=0, le=20, description="foot roll excursion in swing")
+    sway: float = Field(0.02, ge=0, le=0.2, description="lateral foot excursion in swing [m]")
+    posture: Posture = Field("stand", description="stand, or kneel (knee-walking / crawling)")
+
+
+#: Built-in gaits. ``stairs_*`` strides span two treads; their speed is unused.
+GAITS: dict[str, Gait] = {
+    "walk": Gait(),
+    "brisk": Gait(speed=1.6, stride=1.6, swing_s=0.65, clearance=0.13, toe_off_deg=50),
+    "slow": Gait(speed=0.5, stride=0.85, swing_s=0.80, clearance=0.08, toe_off_deg=30,
+                 heel_strike_deg=12),
+    "search": Gait(speed=0.4, stride=0.75, swing_s=0.85, clearance=0.07, toe_off_deg=25,
+                   heel_strike_deg=10),
+    "trail_step": Gait(speed=0.3, stride=0.6, swing_s=0.9, clearance=0.05, toe_off_deg=15,
+                       heel_strike_deg=8, sway=0.01),
+    "knee_walk": Gait(speed=0.2, stride=0.35, swing_s=1.0, clearance=0.03, toe_off_deg=5,
+                      heel_strike_deg=0, roll_deg=2, sway=0.01, posture="kneel"),
+    "crawl": Gait(speed=0.25, stride=0.4, swing_s=1.0, clearance=0.04, toe_off_deg=6,
+                  heel_strike_deg=0, roll_deg=3, sway=0.01, posture="kneel"),
+    "stairs_up": Gait(speed=0.5, stride=0.6, swing_s=0.75, clearance=0.06, toe_off_deg=25,
+                      heel_strike_deg=5),
+    "stairs_down": Gait(speed=0.5, stride=0.6, swing_s=0.70, clearance=0.04, toe_off_deg=10,
+                        heel_strike_deg=5),
+    "stairs_down_backward": Gait(speed=0.3, stride=0.6, swing_s=0.9, clearance=0.04,
+                                 toe_off_deg=20, heel_strike_deg=0),
+}
+
+#: Stance duration per stride on stairs [s] (foot flat on a tread).
+STAIR_STANCE_S = {"stairs_up": 0.45, "stairs_down": 0.40, "stairs_down_backward": 0.8}
+
+#: Foot pitch while kneeling or crawling (toes tucked, sole near vertical) [rad] and
+#: the IMU's height above the floor then [m].
+KNEEL_PITCH = np.radians(70.0)
+KNEEL_IMU_HEIGHT = 0.11
+#: Duration of getting down to / up from the knees [s].
+POSTURE_CHANGE_S = 1.3
+
+
+class Person(BaseModel):
+    """How one firefighter differs from the nominal gaits.
+
+    Unset scales are drawn per seed: ``stride_scale`` ~ N(1, 0.06) (body height),
+    ``speed_scale`` ~ N(1, 0.05) (temperament, load). ``foot`` says which foot wears
+    the IMU; the foot lands ``foot_offset`` [m] beside the body's path line and points
+    ``toe_out_deg`` outwards. ``jitter`` is the stride-to-stride variation of length and
+    duration (fraction, 1 sigma) and ``heading_jitter_deg`` that of foot placement.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    stride_scale: float | None = Field(None, gt=0.5, lt=1.5)
+    speed_scale: float | None = Field(None, gt=0.5, lt=1.5)
+    foot: Literal["right", "left"] = "right"
+    foot_offset: float = Field(0.10, ge=0, le=0.3)
+    toe_out_deg: float = Field(7.0, ge=-20, le=30)
+    imu_height: float = Field(0.06, gt=0, le=0.3, description="IMU above the floor at stance [m]")
+    jitter: float = Field(0.03, ge=0, le=0.2)
+    heading_jitter_deg: float = Field(2.0, ge=0, le=15)
+
+    def drawn(self, rng: np.random.Generator) -> "Person":
+        """This person with unset scales drawn (same rng draws whether set or not)."""
+        stride, speed = 1.0 + 0.06 * rng.standard_normal(), 1.0 + 0.05 * rng.standard_normal()
+        return self.model_copy(update={
+            "stride_scale": self.stride_scale or float(np.clip(stride, 0.8, 1.2)),
+            "speed_scale": self.speed_scale or float(np.clip(speed, 0.85, 1.15))})

@@ -1,0 +1,363 @@
+"""From a firefighter's legs (routes, pauses, stairs) to foot strides and body truth.
+
+The planner (:mod:`.planner`) turns a scenario plan into :class:`Leg` objects: routes on
+one floor, pauses (standing or kneeling), stair flights. A :class:`Walker` executes
+them for one person: it places the instrumented foot's footfalls along each route
+(stride length, cadence, turns of at most 45 degrees per stride, on-the-spot pivots at
+sharp corners, foot beside the path line with a toe-out angle, stride-to-stride
+jitter), sets the stance and swing durations, and records where the body is (knots at
+every footfall) so that the ground truth can be sampled at any rate.
+
+Stairs: the foot lands on tread centres, two treads per stride (one per foot); a
+path of three or more segments is read as flight - landing(s) - flight, with the steps
+on the first and last segments and flat landings between (the building model itself
+treats the height as linear along the path, which is what the body truth uses).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .gait import DOWN, LEVEL, UP, StrideTable
+from .gaits import (GAITS, KNEEL_IMU_HEIGHT, KNEEL_PITCH, POSTURE_CHANGE_S, STAIR_STANCE_S,
+                    Gait, Person)
+from .geometry import fillet, resample
+
+#: Largest heading change of one stride [rad]; sharper turns take several strides.
+MAX_TURN_PER_STRIDE = np.radians(45.0)
+#: Corner radius people walk [m].
+CORNER_RADIUS = 0.35
+
+
+@dataclass
+class Leg:
+    """One piece of a plan, on one floor (stairs: from ``floor`` to ``floor_to``).
+
+    ``kind``: ``"move"`` (``path`` (M, 2) body route starting at the body position,
+    walked with ``gait``, facing backwards if ``backwards``), ``"pause"`` (``duration``
+    [s] in ``posture``), ``"turn"`` (on the spot to ``heading`` [rad]) or ``"stairs"``
+    (``stair`` walked up or down, descending ``backwards`` if set). ``deploy`` lists
+    tags (id, true position (3,)) attached during a pause. ``where`` is the plan path
+    (for error messages).
+    """
+
+    kind: str
+    floor: int
+    path: np.ndarray | None = None
+    gait: str = "walk"
+    backwards: bool = False
+    duration: float = 0.0
+    posture: str = "stand"
+    stair: object = None
+    up: bool = True
+    deploy: list[tuple[str, np.ndarray]] = field(default_factory=list)
+    heading: float = 0.0
+    where: tuple = ()
+
+
+@dataclass
+class Deployment:
+    """A tag attached at time ``t`` [s]; ``position`` (3,) its true place."""
+
+    t: float
+    tag_id: str
+    position: np.ndarray
+
+
+@dataclass
+class BodyTrack:
+    """Body knots: time, position (ground under the body), heading (facing), motion."""
+
+    t: np.ndarray
+    xyz: np.ndarray
+    heading: np.ndarray
+    motion: np.ndarray
+
+    def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(positions (N, 3), headings (N,) wrapped) at times ``t`` (linear between knots)."""
+        pos = np.column_stack([np.interp(t, self.t, self.xyz[:, i]) for i in range(3)])
+        hd = np.interp(t, self.t, np.unwrap(self.heading))
+        return pos, (hd + np.pi) % (2 * np.pi) - np.pi
+
+    def motion_at(self, t: np.ndarray) -> np.ndarray:
+        i = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 1)
+        return self.motion[i]
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+class Walker:
+    """Executes legs for one person; collects swings, body knots and tag deployments."""
+
+    def __init__(self, person: Person, gaits: dict[str, Gait], rng: np.random.Generator, *,
+                 t0: float, xy: np.ndarray, floor: int, z: float, heading: float,
+                 emit_deployments: bool = True):
+        self.person = person
+        self.gaits = {**GAITS, **gaits}
+        self.rng = rng
+        self.emit_deployments = emit_deployments
+        self.side = -1.0 if person.foot == "right" else 1.0  # left-normal multiplier
+        self.t = float(t0)                 # the foot is at rest since this time
+        self.floor = floor
+        self.z_ground = float(z)
+        self.xy = np.asarray(xy, float)
+        self.heading = float(heading)
+        self.posture = "stand"
+        self.foot_p = self._foot_point(self.xy, heading, z)
+        self.foot_yaw = heading + self._toe_out()
+        self.foot_pitch = 0.0
+        self.swings: list[tuple] = []
+        self.knots: list[tuple] = []
+        self.deployments: list[Deployment] = []
+        self._knot(self.t, "still")
+
+    # -- helpers -------------------------------------------------------------------
+    def _toe_out(self) -> float:
+        """Toe-out yaw offset: outwards, i.e. clockwise for the right foot [rad]."""
+        return self.side * np.radians(self.person.toe_out_deg)
+
+    def _imu_height(self, posture: str) -> float:
+        return KNEEL_IMU_HEIGHT if posture == "kneel" else self.person.imu_height
+
+    def _foot_point(self, xy: np.ndarray, heading: float, z_ground: float,
+                    posture: str = "stand") -> np.ndarray:
+        left = np.array([-np.sin(heading), np.cos(heading)])
+        p = xy + self.side * self.person.foot_offset * left
+        return np.array([p[0], p[1], z_ground + self._imu_height(posture)])
+
+    def _knot(self, t: float, motion: str) -> None:
+        self.knots.append((t, self.xy[0], self.xy[1], self.z_ground, self.heading, motion))
+
+    def _gait(self, name: str) -> Gait:
+        return self.gaits[name]
+
+    def _stride_length(self, gait: Gait) -> float:
+        return gait.stride * self.person.stride_scale * np.sqrt(self.person.speed_scale)
+
+    def _swing(self, t0: float, t1: float, p1: np.ndarray, yaw1: float, pitch1: float,
+               gait: Gait, vstyle: int, motion: str, toe_off: float | None = None,
+               heel: float | None = None) -> None:
+        self.swings.append((t0, t1, self.foot_p.copy(), p1.copy(), self.foot_yaw, yaw1,
+                            self.foot_pitch, pitch1, gait.clearance,
+                            np.radians(gait.toe_off_deg) if toe_off is None else toe_off,
+                            np.radians(gait.heel_strike_deg) if heel is None else heel,
+                            np.radians(gait.roll_deg), gait.sway, vstyle, motion))
+        self.foot_p = p1.copy()
+        self.foot_yaw = yaw1
+        self.foot_pitch = pitch1
+        self.t = t1
+
+    # -- legs ------------------------------------------------------------------------
+    def run(self, legs: list[Leg]) -> None:
+        for leg in legs:
+            if leg.kind == "pause":
+                self.pause(leg)
+            elif leg.kind == "move":
+                self.move(leg)
+            elif leg.kind == "stairs":
+                self.stairs(leg)
+            elif leg.kind == "turn":
+                self.turn(leg.heading)
+            else:  # pragma: no cover - the planner only makes these kinds
+                raise ValueError(f"unknown leg kind {leg.kind!r}")
+
+    def set_posture(self, posture: str) -> None:
+        """Get down on the knees or stand up: one slow in-place swing of the foot."""
+        if posture == self.posture:
+            return
+        t0 = self.t + 0.3
+        pitch = KNEEL_PITCH if posture == "kneel" else 0.0
+        p1 = self.foot_p.copy()
+        p1[2] = self.z_ground + self._imu_height(posture)
+        g = Gait(clearance=0.03, toe_off_deg=0, heel_strike_deg=0, roll_deg=2, sway=0.0)
+        self._swing(t0, t0 + POSTURE_CHANGE_S, p1, self.foot_yaw, pitch, g, LEVEL, "posture")
+        self.posture = posture
+        self._knot(self.t, "posture")
+
+    def pause(self, leg: Leg) -> None:
+        if leg.posture != self.posture:
+            self.set_posture(leg.posture)
+        t_start = self.t
+        self._knot(t_start, "still")
+        if self.emit_deployments:
+            for i, (tag, pos) in enumerate(leg.deploy):
+                self.deployments.append(Deployment(t_start + min(1.0 + i, leg.duration),
+                                                   tag, np.asarray(pos, float)))
+        self.t = t_start + leg.duration
+        self._knot(self.t, "still")
+
+    def move(self, leg: Leg) -> None:
+        gait = self._gait(leg.gait)
+        if gait.posture != self.posture:
+            self.set_posture(gait.posture)
+        path = np.asarray(leg.path, float)
+        if len(path) < 2 or np.linalg.norm(path[-1] - path[0]) < 1e-6 and len(path) == 2:
+            return
+        smooth, sharp = fillet(path, CORNER_RADIUS)
+        dense, s = resample(smooth, 0.05)
+        travel = np.unwrap(np.arctan2(np.diff(dense[:, 1]), np.diff(dense[:, 0])))
+        travel = np.concatenate([travel, travel[-1:]])
+        facing = travel + (np.pi if leg.backwards else 0.0)
+        # turn from the current heading to the first facing direction on the spot
+        facing0 = self.heading + _wrap(facing[0] - self.heading)
+        facing += facing0 - facing[0]
+        s = np.concatenate([[0.0], s])
+        dense = np.vstack([dense[:1], dense])
+        facing = np.concatenate([[self.heading], facing])
+        L = self._stride_length(gait)
+        kappa = L / MAX_TURN_PER_STRIDE
+        q = s + kappa * np.concatenate([[0.0], np.cumsum(np.abs(np.diff(facing)))])
+        total = q[-1]
+        if total < 0.05:
+            return
+        n = max(1, int(round(total / L)))
+        w = np.clip(1.0 + self.person.jitter * self.rng.standard_normal(n), 0.7, 1.3)
+        qi = total * np.cumsum(w) / w.sum()
+        si = np.interp(qi, q, s)
+        hi = np.interp(qi, q, facing)
+        xy = np.column_stack([np.interp(si, s[1:], dense[1:, 0]),
+                              np.interp(si, s[1:], dense[1:, 1])])
+        dq = np.diff(np.concatenate([[0.0], qi]))
+        period = dq / (gait.speed * self.person.speed_scale)
+        swing = np.minimum(gait.swing_s * (1 + self.person.jitter * self.rng.standard_normal(n)),
+                           0.85 * period)
+        swing = np.maximum(swing, 0.35)
+        stance = np.maximum(period - swing, 0.12)
+        z = np.full(n, self.z_ground)
+        self._footfalls(xy, hi, z, stance, swing, np.full(n, LEVEL), gait, leg.gait)
+
+    def turn(self, heading: float) -> None:
+        """Turn on the spot to ``heading`` [rad], at most 45 degrees per stride."""
+        delta = _wrap(heading - self.heading)
+        n = int(np.ceil(abs(delta) / MAX_TURN_PER_STRIDE))
+        if n == 0:
+            return
+        gait = self._gait("walk" if self.posture == "stand" else "crawl")
+        hi = self.heading + delta * np.arange(1, n + 1) / n
+        swing = np.full(n, 0.6)
+        self._footfalls(np.repeat(self.xy[None], n, 0), hi, np.full(n, self.z_ground),
+                        np.full(n, 0.3), swing, np.full(n, LEVEL),
+                        gait.model_copy(update={"clearance": 0.04, "toe_off_deg": 10.0,
+                                                "heel_strike_deg": 5.0}), "turn")
+
+    def _footfalls(self, xy: np.ndarray, heading: np.ndarray, z: np.ndarray,
+                   stance: np.ndarray, swing: np.ndarray, vstyle: np.ndarray, gait: Gait,
+                   motion: str) -> None:
+        pitch = KNEEL_PITCH if self.posture == "kneel" else 0.0
+        jitter = np.radians(self.person.heading_jitter_deg) * self.rng.standard_normal(len(xy))
+        for i in range(len(xy)):
+            t0 = self.t + stance[i]
+            t1 = t0 + swing[i]
+            p1 = self._foot_point(xy[i], heading[i], z[i], self.posture)
+            yaw1 = heading[i] + self._toe_out() + jitter[i]
+            yaw1 = self.foot_yaw + _wrap(yaw1 - self.foot_yaw)
+            self._swing(t0, t1, p1, yaw1, pitch, gait, int(vstyle[i]), motion)
+            self.xy = xy[i]
+            self.heading = float(heading[i])
+            self.z_ground = float(z[i])
+            self._knot(t1 + 0.5 * min(stance[min(i + 1, len(xy) - 1)], 0.4), motion)
+
+    def stairs(self, leg: Leg) -> None:
+        if self.posture != "stand":
+            self.set_posture("stand")
+        st, up = leg.stair, leg.up
+        name = "stairs_up" if up else ("stairs_down_backward" if leg.backwards else "stairs_down")
+        gait = self._gait(name)
+        s_tread, z_tread, s_land, z_land, length = stair_geometry(st)
+        # The instrumented foot lands on every other tread (right foot: the 1st, 3rd...
+        # in the walking direction), walks the landings flat, and steps off 0.35 m
+        # beyond the last tread.
+        n = len(s_tread)
+        order = np.arange(n) if up else np.arange(n)[::-1]
+        first = 0 if self.person.foot == "right" else 1
+        pick = order[first::2]
+        fs = np.concatenate([s_tread[pick], s_land])
+        fz = np.concatenate([z_tread[pick], z_land])
+        srt = np.argsort(fs if up else -fs)
+        fs, fz = fs[srt], fz[srt]
+        fs = np.concatenate([fs, [length + 0.35 if up else -0.35]])
+        fz = np.concatenate([fz, [st.z_to if up else st.z_from]])
+        path = np.asarray(st.path, float)
+        ext = np.vstack([path[0] - 0.35 * _unit(path[1] - path[0]), path,
+                         path[-1] + 0.35 * _unit(path[-1] - path[-2])])
+        s_ext = np.concatenate([[-0.35], np.concatenate([[0.0], np.cumsum(
+            np.linalg.norm(np.diff(path, axis=0), axis=1))]), [length + 0.35]])
+        xy = np.column_stack([np.interp(fs, s_ext, ext[:, 0]), np.interp(fs, s_ext, ext[:, 1])])
+        seg_i = np.clip(np.searchsorted(s_ext, fs, side="right") - 1, 0, len(ext) - 2)
+        d = np.diff(ext, axis=0)[seg_i]
+        climb = np.arctan2(d[:, 1], d[:, 0])               # bottom-to-top direction
+        facing = climb if (up or leg.backwards) else climb + np.pi
+        heading = self.heading + np.cumsum(np.concatenate(
+            [[_wrap(facing[0] - self.heading)], _wrap(np.diff(facing))]))
+        dz = np.diff(np.concatenate([[self.z_ground], fz]))
+        vstyle = np.where(dz > 0.05, UP, np.where(dz < -0.05, DOWN, LEVEL))
+        m = len(fs)
+        stance = np.full(m, STAIR_STANCE_S[name])
+        swing = gait.swing_s * np.clip(1 + self.person.jitter * self.rng.standard_normal(m),
+                                       0.8, 1.2) / self.person.speed_scale
+        self._footfalls(xy, heading, fz, stance, swing, vstyle, gait, name)
+        self.floor = st.floor_to if up else st.floor_from
+
+    # -- results ---------------------------------------------------------------------
+    def stride_table(self) -> StrideTable | None:
+        if not self.swings:
+            return None
+        cols = list(zip(*self.swings))
+        p0, p1 = np.array(cols[2]), np.array(cols[3])
+        yaw0, yaw1 = np.array(cols[4], float), np.array(cols[5], float)
+        pitch0, pitch1 = np.array(cols[6], float), np.array(cols[7], float)
+        k = len(self.swings)
+        return StrideTable(t0=np.array(cols[0], float), t1=np.array(cols[1], float), p0=p0, p1=p1,
+                           yaw0=yaw0, yaw1=yaw1, pitch0=pitch0, pitch1=pitch1,
+                           roll0=np.zeros(k), roll1=np.zeros(k),
+                           clearance=np.array(cols[8], float), toe_off=np.array(cols[9], float),
+                           heel_strike=np.array(cols[10], float),
+                           roll_amp=np.array(cols[11], float), sway=np.array(cols[12], float),
+                           vstyle=np.array(cols[13], int), motion=np.array(cols[14], dtype=object))
+
+    def body_track(self) -> BodyTrack:
+        k = sorted(self.knots, key=lambda r: r[0])
+        t = np.array([r[0] for r in k])
+        # keep time strictly increasing for interpolation
+        t = np.maximum.accumulate(t + np.arange(len(t)) * 1e-9)
+        return BodyTrack(t=t, xyz=np.array([[r[1], r[2], r[3]] for r in k]),
+                         heading=np.array([r[4] for r in k]),
+                         motion=np.array([r[5] for r in k], dtype=object))
+
+
+def stair_geometry(st) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+    """Treads and landings of a stair, along its walking line from the bottom.
+
+    Returns (tread centre s (n,), tread surface z (n,), landing footfall s, landing z,
+    path length). With three or more path segments the first and last are flights and
+    the ones between flat landings; otherwise the steps spread over the whole path.
+    """
+    path = np.asarray(st.path, float)
+    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    s_nodes = np.concatenate([[0.0], np.cumsum(seg)])
+    flights = [0, len(seg) - 1] if len(seg) >= 3 else list(range(len(seg)))
+    n = int(st.n_steps)
+    per = np.floor(n * seg[flights] / seg[flights].sum()).astype(int)
+    per[-1] = n - per[:-1].sum()
+    rise = st.rise / n
+    s_tread: list[float] = []
+    for f, k in zip(flights, per):
+        tread = seg[f] / max(k, 1)
+        s_tread.extend(s_nodes[f] + (np.arange(k) + 0.5) * tread)
+    z_tread = st.z_from + rise * np.arange(1, n + 1)
+    s_land, z_land = [], []
+    if len(seg) >= 3:
+        z_mid = st.z_from + rise * per[0]
+        for f in range(1, len(seg) - 1):
+            k = max(1, int(round(seg[f] / 0.6)))
+            s_land.extend(s_nodes[f] + seg[f] * np.arange(1, k + 1) / (k + 1))
+            z_land.extend([z_mid] * k)
+    return (np.array(s_tread), z_tread, np.array(s_land), np.array(z_land, float),
+            float(s_nodes[-1]))
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / max(np.linalg.norm(v), 1e-12)

@@ -1,0 +1,549 @@
+"""Scenario files: what building, who moves how, what they carry (YAML, validated).
+
+A scenario is a YAML mapping (full reference with examples: ``docs/scenarios.md``)::
+
+    name: flat_search
+    building: flat_125            # a bundled plan name, or a plan file relative to this file
+    duration_s: 600               # optional cap
+    agents:
+      - id: ff1
+        start: {entrance: front}
+        sensors:
+          imu: {grade: xsens_mti3, rate_hz: 100}
+        plan:
+          - wait: 10
+          - search: {hand: right, gait: search}
+      - id: ff2
+        follow: {agent: ff1, lag_s: 1.5}
+        sensors: {imu: {grade: xsens_mti3}}
+
+Plan steps are one-key mappings (``wait``, ``kneel``, ``walk``, ``crawl``, ``search``,
+``compartmental_search``, ``stairs``, ``turn``, ``repeat``); see :data:`STEP_MODELS`.
+Every problem is reported as ``file:line:col: where: message`` through
+:class:`~firenav_framework.yaml_locations.ConfigError`.
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from ..yaml_locations import ConfigError, LocatedDocument, Problem, load, loads
+from .gaits import Gait, Person
+from .imu_grades import AccelSpec, GyroSpec, MagSpec, get_grade
+
+SCENARIO_DIR = Path(__file__).with_name("scenarios")
+
+XY = tuple[float, float]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+# -- environment and radio ------------------------------------------------------------
+
+class Magnetic(_Model):
+    """Earth field and the building's disturbance of it (steel, wiring)."""
+
+    intensity_ut: float = Field(50.0, gt=0, le=70)
+    inclination_deg: float = Field(65.0, ge=-90, le=90)
+    declination_deg: float = Field(2.0, ge=-180, le=180)
+    indoor_disturbance_ut: float = Field(10.0, ge=0, description="rms per axis [uT]")
+
+
+class Temperature(_Model):
+    """IMU temperature change from its calibration point (drives thermal drift)."""
+
+    change_k: float = Field(0.0, ge=-50, le=150, description="final change [K]")
+    tau_s: float = Field(300.0, gt=0, description="time constant of the change [s]")
+
+
+class Environment(_Model):
+    gravity: float = Field(9.81, gt=9.7, lt=9.9, description="local gravity [m/s^2]")
+    earth_rate: bool = Field(True, description="include the Earth rotation in the gyros")
+    latitude_deg: float | None = Field(None, ge=-90, le=90, description="default: the "
+                                       "building's georef latitude, else 50")
+    magnetic: Magnetic = Magnetic()
+    temperature: Temperature = Temperature()
+
+
+class Fire(_Model):
+    """A fire zone: heat and smoke attenuate and disturb radio links through it."""
+
+    floor: int = 0
+    position: XY
+    radius_m: float = Field(3.0, gt=0)
+    loss_db_per_m: float = Field(3.0, ge=0, description="extra path loss inside the zone")
+    fading_db: float = Field(4.0, ge=0, description="extra fading std of links through it")
+    start_s: float = Field(0.0, ge=0)
+
+
+class Radio(_Model):
+    """2.4 GHz breadcrumb radio links (log-distance path loss, breadcrumb paper Sec. V)."""
+
+    rssi_1m_dbm: float = Field(-40.0, description="RSSI at 1 m (paper Fig. 7: > -40 dBm at "
+                               "encounters within about 1 m)")
+    exponent: float = Field(2.8, gt=1, lt=6, description="path-loss exponent")
+    wall_db: float = Field(4.0, ge=0, description="loss per wall crossed")
+    floor_db: float = Field(15.0, ge=0, description="loss per floor crossed")
+    shadowing_db: float = Field(4.0, ge=0, description="log-normal shadowing std")
+    shadowing_m: float = Field(3.0, gt=0, description="shadowing decorrelation distance")
+    fading_db: float = Field(2.5, ge=0, description="per-packet fading std")
+    body_db: float = Field(6.0, ge=0, description="extra loss when the wearer's body is "
+                           "between antenna and peer")
+    sensitivity_dbm: float = Field(-95.0, description="packets weaker than this are lost")
+    packet_rate_hz: float = Field(1.0, gt=0, le=50, description="packets per node per second")
+    base_station: str | None = Field("base", description="building anchor id of the base "
+                                     "station (root of the breadcrumb chain), or null")
+
+
+class AnchorSpec(_Model):
+    """An extra fixed radio node (e.g. a UWB anchor left at the entrance)."""
+
+    id: str
+    position: XY
+    floor: int = 0
+    height_m: float = Field(1.0, ge=0, le=10)
+    kind: Literal["uwb", "base_station"] = "uwb"
+
+
+# -- sensors ----------------------------------------------------------------------------
+
+class ImuConfig(_Model):
+    """The foot IMU: a named grade, its rate, mounting and optional overrides."""
+
+    grade: str = "industrial"
+    rate_hz: float = Field(100.0, ge=50, le=1000)
+    axes: str = Field("FLU", description="device axes on the foot, e.g. FLU or FRD (z down)")
+    mount_deg: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="roll, pitch, "
+                                                  "yaw of the device on the boot [deg]")
+    magnetometer: bool = False
+    gyro: dict[str, float] = Field(default_factory=dict, description="GyroSpec overrides")
+    accel: dict[str, float] = Field(default_factory=dict, description="AccelSpec overrides")
+    mag: dict[str, float] = Field(default_factory=dict, description="MagSpec overrides")
+
+    @field_validator("grade")
+    @classmethod
+    def _grade(cls, v: str) -> str:
+        get_grade(v)
+        return v
+
+    @field_validator("axes")
+    @classmethod
+    def _axes(cls, v: str) -> str:
+        from .imu_ideal import axes_matrix
+        axes_matrix(v)
+        return v.upper()
+
+    @field_validator("gyro")
+    @classmethod
+    def _gyro(cls, v: dict) -> dict:
+        GyroSpec(**v)
+        return v
+
+    @field_validator("accel")
+    @classmethod
+    def _accel(cls, v: dict) -> dict:
+        AccelSpec(**v)
+        return v
+
+    @field_validator("mag")
+    @classmethod
+    def _mag(cls, v: dict) -> dict:
+        MagSpec(**v)
+        return v
+
+
+class UwbConfig(_Model):
+    """A UWB tag ranging to fixed anchors (DW1000 class, ORCA paper Sec. 3.1)."""
+
+    anchors: list[str] | None = Field(None, description="anchor ids (default: every uwb anchor)")
+    rate_hz: float = Field(2.0, gt=0, le=50)
+    sigma_m: float = Field(0.10, gt=0, description="line-of-sight range noise")
+    nlos_bias_m: float = Field(0.30, ge=0, description="mean extra delay per wall (positive)")
+    nlos_sigma_m: float = Field(0.25, ge=0, description="extra noise per wall")
+    outlier_prob: float = Field(0.01, ge=0, le=0.5)
+    dropout_prob: float = Field(0.02, ge=0, le=1)
+    dropout_per_wall: float = Field(0.08, ge=0, le=1)
+    max_range_m: float = Field(40.0, gt=0)
+    height_m: float = Field(1.4, ge=0, le=3, description="tag height on the body")
+
+
+class RfidConfig(_Model):
+    """An RFID reader (and, with ``deploy``, a tag dispenser) on the firefighter."""
+
+    deploy: bool = Field(False, description="stick a tag on each new door / stair end passed")
+    pause_s: float = Field(3.0, ge=0, le=30, description="stop to stick a tag")
+    range_m: float = Field(1.5, gt=0, le=10, description="read range")
+    rate_hz: float = Field(5.0, gt=0, le=100, description="read attempts per second")
+    window_s: float = Field(1.0, gt=0, description="reads aggregated into one detection")
+    reader_height_m: float = Field(1.2, ge=0, le=3, description="reader on the body")
+    tag_height_m: float = Field(2.0, ge=0, le=4, description="tags at the top of the jamb")
+
+
+class DispenserConfig(_Model):
+    """A breadcrumb dispenser (breadcrumb paper Sec. III): drops a node when the link
+    from the wearer to the last node of the chain gets weak."""
+
+    capacity: int = Field(6, ge=1, le=100)
+    drop_below_dbm: float = Field(-80.0, description="drop when the averaged RSSI to the "
+                                  "chain falls below this")
+    average_packets: int = Field(3, ge=1, le=50)
+    min_spacing_m: float = Field(3.0, ge=0)
+
+
+class Sensors(_Model):
+    imu: ImuConfig | None = ImuConfig()
+    uwb: UwbConfig | None = None
+    rfid: RfidConfig | None = None
+    dispenser: DispenserConfig | None = None
+    radio: bool | None = Field(None, description="carries a radio node (default: when the "
+                               "scenario has breadcrumbs)")
+
+
+# -- plans ------------------------------------------------------------------------------
+
+class Stops(_Model):
+    """Short random stops along a route (feeling furniture, listening)."""
+
+    every_m: float = Field(6.0, gt=0.5)
+    duration_s: tuple[float, float] = (1.0, 4.0)
+
+
+class Target(_Model):
+    """Where to go: exactly one of position, door, room, entrance, anchor."""
+
+    position: XY | None = None
+    door: str | None = None
+    room: str | None = None
+    entrance: str | None = None
+    anchor: str | None = None
+    floor: int | None = None
+
+
+class Walk(_Model):
+    """Go somewhere: ``to`` a target (routed around walls, through doors, up/down stairs)
+    or along explicit ``via`` points (straight lines, which must not cross walls)."""
+
+    to: Target | XY | None = None
+    via: list[XY] | None = None
+    gait: str = "walk"
+    backwards: bool = False
+    stops: Stops | None = None
+
+
+class Crawl(Walk):
+    gait: str = "crawl"
+
+
+class Search(_Model):
+    """Directional (hand-on-wall) search from where the agent stands."""
+
+    hand: Literal["right", "left"] = "right"
+    rooms: list[str] | None = Field(None, description="limit to these rooms (default: floor)")
+    closed_doors: list[str] = Field(default_factory=list, description="doors treated as walls")
+    offset_m: float = Field(0.5, ge=0.25, le=1.5, description="body to wall distance")
+    gait: str = "search"
+    laps: float = Field(1.0, gt=0, le=20)
+    length_m: float | None = Field(None, gt=0, description="stop after this distance")
+    stops: Stops | None = None
+
+
+class CompartmentalSearch(_Model):
+    """Search the current room hand-on-wall, then each room behind its doors in turn,
+    coming back the same way (search-pattern paper, Sec. II)."""
+
+    hand: Literal["right", "left"] = "right"
+    rooms: list[str] | None = Field(None, description="rooms to search (default: all "
+                                    "reachable)")
+    offset_m: float = Field(0.5, ge=0.25, le=1.5)
+    gait: str = "search"
+    stops: Stops | None = None
+
+
+class Stairs(_Model):
+    to_floor: int
+    backwards: bool = Field(False, description="descend backwards (firefighter practice)")
+
+
+class Turn(_Model):
+    heading_deg: float | None = None
+    by_deg: float | None = None
+
+
+class Repeat(_Model):
+    times: int = Field(2, ge=1, le=100)
+    plan: list[Any]
+
+
+STEP_MODELS: dict[str, type[BaseModel] | type] = {
+    "wait": float, "kneel": float, "walk": Walk, "crawl": Crawl, "search": Search,
+    "compartmental_search": CompartmentalSearch, "stairs": Stairs, "turn": Turn,
+    "repeat": Repeat,
+}
+
+
+@dataclass(frozen=True)
+class Step:
+    """One validated plan step: its kind, its model (or seconds) and its YAML path."""
+
+    kind: str
+    spec: Any
+    where: tuple
+    plan: tuple["Step", ...] = ()   # for repeat
+
+
+class Start(_Model):
+    entrance: str | None = None
+    position: XY | None = None
+    floor: int = 0
+    heading_deg: float | None = None
+    time_s: float = Field(5.0, ge=0, description="the plan starts here; before it the "
+                          "firefighter stands still (IMU alignment)")
+
+
+class Follow(_Model):
+    """Move as the second of a team: same route as ``agent``, ``lag_s`` behind."""
+
+    agent: str
+    lag_s: float = Field(1.5, ge=0, le=60)
+
+
+class AgentSpec(_Model):
+    id: str = Field(min_length=1)
+    team: str = ""
+    start: Start = Start()
+    person: Person = Person()
+    sensors: Sensors = Sensors()
+    plan: list[Any] | None = None
+    follow: Follow | None = None
+
+
+class ScenarioModel(_Model):
+    name: str = ""
+    description: str = ""
+    building: str
+    duration_s: float | None = Field(None, gt=0)
+    truth_rate_hz: float = Field(20.0, gt=0, le=200)
+    end_still_s: float = Field(3.0, ge=0, description="still time after the last plan ends")
+    gaits: dict[str, dict[str, Any]] = Field(default_factory=dict)
+    environment: Environment = Environment()
+    radio: Radio = Radio()
+    fires: list[Fire] = Field(default_factory=list)
+    anchors: list[AnchorSpec] = Field(default_factory=list)
+    agents: list[AgentSpec] = Field(min_length=1)
+
+
+@dataclass
+class Scenario:
+    """A validated scenario with its file, resolved building path and plan steps."""
+
+    model: ScenarioModel
+    file: str
+    base_dir: Path
+    building_path: Path
+    steps: dict[str, tuple[Step, ...]]
+    gaits: dict[str, Gait]
+    document: LocatedDocument
+
+    @property
+    def name(self) -> str:
+        return self.model.name or Path(self.file).stem
+
+    def problem(self, where: tuple, message: str) -> ConfigError:
+        """A ConfigError pointing at ``where`` in the scenario file."""
+        return ConfigError([self.document.problem(where, message)])
+
+    def with_updates(self, **top: Any) -> "Scenario":
+        """A copy with top-level fields replaced (e.g. ``duration_s``), re-validated."""
+        doc = copy.deepcopy(self.document)
+        doc.data.update(top)
+        return _validate(doc, self.base_dir)
+
+
+def _locate_loc(doc: LocatedDocument, base: tuple, loc: tuple) -> tuple:
+    """Walk a pydantic ``loc`` down the document, skipping parts that are not keys."""
+    path = tuple(base)
+    node: Any = doc.data
+    for part in base:
+        node = node[part] if isinstance(node, (dict, list)) else None
+    for part in loc:
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+            path += (part,)
+        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
+            node = node[part]
+            path += (part,)
+        elif isinstance(node, dict) and isinstance(part, str):
+            path += (part,)  # a missing key: point at the mapping, name the key
+            break
+    return path
+
+
+def _pyd_problems(doc: LocatedDocument, base: tuple, exc: ValidationError) -> list[Problem]:
+    from ..pipeline import pydantic_message
+    out = []
+    for err in exc.errors():
+        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p.startswith("function-")))
+        out.append(doc.problem(_locate_loc(doc, base, loc), pydantic_message(err)))
+    return out
+
+
+def _steps(doc: LocatedDocument, items: Any, base: tuple, problems: list[Problem]
+           ) -> tuple[Step, ...]:
+    if not isinstance(items, list):
+        problems.append(doc.problem(base, "a plan is a list of steps"))
+        return ()
+    out = []
+    for i, item in enumerate(items):
+        where = base + (i,)
+        if not isinstance(item, dict) or len(item) != 1:
+            problems.append(doc.problem(where, "each plan step is a one-key mapping such as "
+                                        f"'- wait: 10'; known steps: {', '.join(STEP_MODELS)}"))
+            continue
+        kind, value = next(iter(item.items()))
+        model = STEP_MODELS.get(kind)
+        if model is None:
+            from ..pipeline import _did_you_mean
+            problems.append(doc.problem(where + (kind,), f"unknown plan step '{kind}'"
+                                        f"{_did_you_mean(str(kind), list(STEP_MODELS))}; "
+                                        f"known: {', '.join(STEP_MODELS)}"))
+            continue
+        if model is float:
+            if isinstance(value, dict) and set(value) == {"duration_s"}:
+                value = value["duration_s"]
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or value < 0:
+                problems.append(doc.problem(where + (kind,), f"'{kind}' takes a duration in "
+                                            "seconds, e.g. '- wait: 10'"))
+                continue
+            out.append(Step(kind, float(value), where))
+            continue
+        try:
+            spec = model.model_validate(value if value is not None else {})
+        except ValidationError as exc:
+            problems.extend(_pyd_problems(doc, where + (kind,), exc))
+            continue
+        nested: tuple[Step, ...] = ()
+        if kind == "repeat":
+            nested = _steps(doc, spec.plan, where + (kind, "plan"), problems)
+        if isinstance(spec, (Walk, Crawl)):
+            if (spec.to is None) == (spec.via is None):
+                problems.append(doc.problem(where + (kind,), "give either 'to' (a target) or "
+                                            "'via' (a list of [x, y] points)"))
+                continue
+            if isinstance(spec.to, Target):
+                given = [k for k in ("position", "door", "room", "entrance", "anchor")
+                         if getattr(spec.to, k) is not None]
+                if len(given) != 1:
+                    problems.append(doc.problem(where + (kind, "to"), "a target needs exactly "
+                                                "one of position, door, room, entrance, anchor"))
+                    continue
+        if isinstance(spec, Turn) and (spec.heading_deg is None) == (spec.by_deg is None):
+            problems.append(doc.problem(where + (kind,), "give either heading_deg or by_deg"))
+            continue
+        out.append(Step(kind, spec, where, nested))
+    return tuple(out)
+
+
+def _gait_names(steps: tuple[Step, ...]) -> list[tuple[str, tuple]]:
+    out = []
+    for s in steps:
+        g = getattr(s.spec, "gait", None)
+        if g is not None:
+            out.append((g, s.where + (s.kind, "gait")))
+        out.extend(_gait_names(s.plan))
+    return out
+
+
+def _validate(doc: LocatedDocument, base_dir: Path) -> Scenario:
+    from ..building import bundled_plans
+    from .gaits import GAITS
+    if not isinstance(doc.data, dict):
+        raise ConfigError([doc.problem((), "a scenario must be a mapping with at least "
+                                       "'building' and 'agents'")])
+    try:
+        model = ScenarioModel.model_validate(doc.data)
+    except ValidationError as exc:
+        raise ConfigError(_pyd_problems(doc, (), exc)) from None
+    problems: list[Problem] = []
+    if model.building in bundled_plans():
+        from ..building import bundled_plan
+        building_path = bundled_plan(model.building)
+    else:
+        building_path = Path(model.building).expanduser()
+        if not building_path.is_absolute():
+            building_path = base_dir / building_path
+        if not building_path.is_file():
+            problems.append(doc.problem(("building",), f"'{model.building}' is neither a "
+                                        f"bundled plan ({', '.join(bundled_plans())}) nor a "
+                                        f"file (looked for {building_path})"))
+    gaits: dict[str, Gait] = {}
+    for name, over in model.gaits.items():
+        try:
+            gaits[name] = Gait.model_validate({**GAITS.get(name, Gait()).model_dump(), **over})
+        except ValidationError as exc:
+            problems.extend(_pyd_problems(doc, ("gaits", name), exc))
+    known_gaits = {**GAITS, **gaits}
+    ids = [a.id for a in model.agents]
+    steps: dict[str, tuple[Step, ...]] = {}
+    for i, agent in enumerate(model.agents):
+        where = ("agents", i)
+        if ids.count(agent.id) > 1:
+            problems.append(doc.problem(where + ("id",), f"agent id '{agent.id}' is used twice"))
+        if (agent.plan is None) == (agent.follow is None):
+            problems.append(doc.problem(where, "an agent needs either a 'plan' or 'follow'"))
+            continue
+        if agent.follow is not None:
+            if agent.follow.agent not in ids or agent.follow.agent == agent.id:
+                problems.append(doc.problem(where + ("follow", "agent"), f"no other agent "
+                                            f"'{agent.follow.agent}' to follow; agents: "
+                                            f"{', '.join(ids)}"))
+            elif model.agents[ids.index(agent.follow.agent)].follow is not None:
+                problems.append(doc.problem(where + ("follow", "agent"), "follow a leader who "
+                                            "has a plan (chains of followers are not supported)"))
+            continue
+        steps[agent.id] = _steps(doc, agent.plan, where + ("plan",), problems)
+        for gname, gwhere in _gait_names(steps[agent.id]):
+            if gname not in known_gaits:
+                problems.append(doc.problem(gwhere, f"unknown gait '{gname}'; known: "
+                                            f"{', '.join(sorted(known_gaits))} (or define it "
+                                            "under 'gaits:')"))
+    if problems:
+        raise ConfigError(problems)
+    return Scenario(model=model, file=doc.file, base_dir=base_dir,
+                    building_path=Path(building_path), steps=steps, gaits=gaits, document=doc)
+
+
+def bundled_scenarios() -> list[str]:
+    """Names of the scenarios shipped with firenav (``scenarios/*.yaml``)."""
+    return sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
+
+
+def scenario_path(name_or_path: str | Path) -> Path:
+    """A scenario file: an existing path, or the bundled scenario of that name."""
+    p = Path(name_or_path).expanduser()
+    if p.is_file():
+        return p
+    bundled = SCENARIO_DIR / f"{name_or_path}.yaml"
+    if bundled.is_file():
+        return bundled
+    raise ConfigError([Problem(str(name_or_path), None, None, "", "no such scenario file "
+                               f"and no bundled scenario of that name; bundled: "
+                               f"{', '.join(bundled_scenarios())}")])
+
+
+def load_scenario(path_or_name: str | Path) -> Scenario:
+    """Read and validate a scenario (a file path or a bundled scenario name)."""
+    path = scenario_path(path_or_name)
+    doc = load(path)
+    return _validate(doc, path.resolve().parent)
+
+
+def load_scenario_text(text: str, *, file: str = "<string>", base_dir: Path | None = None
+                       ) -> Scenario:
+    """Validate a scenario given as YAML text (tests, embedding)."""
+    return _validate(loads(text, file), base_dir or Path.cwd())
