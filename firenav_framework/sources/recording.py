@@ -13,7 +13,7 @@ from pydantic import field_validator
 
 from ..components import Params, Source, param
 from ..messages import Message
-from .readers import ReaderError, ReadOptions, find_reader, reader_table
+from .readers import PORTS, ReaderError, ReadOptions, find_reader, reader_table
 
 
 class RecordingSource(Source):
@@ -21,6 +21,8 @@ class RecordingSource(Source):
 
     name = "recording"
     input_param = "path"
+    #: The ports every recording offers; reader modules may add more (output_ports).
+    outputs = dict(PORTS)
 
     class Params(Params):
         path: str | None = param(None, description="recorded file, relative to the pipeline "

@@ -188,7 +188,7 @@ class FootImuSensor(Sensor):
                                           "e.g. sys1/comp1/imu0 or can0/node*) -> 'agent' or "
                                           "'agent/device'; first match wins")
         default_agent: str = param("ff1", min_length=1, description="agent of frame devices "
-                                   "that agent_map does not name")
+                                   "that neither agent_map nor the frame's source names")
         dbc: str | None = param(None, description="DBC file of the CAN layout (default: the "
                                 "shipped firenav_imu.dbc)")
         mavlink_messages: list[Literal["HIGHRES_IMU", "SCALED_IMU", "RAW_IMU"]] = param(
@@ -299,7 +299,7 @@ class FootImuSensor(Sensor):
             self.ctx.count("frames_ignored")
             return
         for s in samples:
-            dev, clock = self._route(s.device)
+            dev, clock = self._route(s.device, frame.agent)
             t, resynced = clock.to_pipeline(s.t, frame.t)
             if resynced:
                 self._decoder_count("clock_resyncs", 1, dev)
@@ -349,13 +349,18 @@ class FootImuSensor(Sensor):
         self._devices[(agent, device)] = dev
         return dev
 
-    def _route(self, raw_id: str) -> tuple[_Device, DeviceClock]:
-        """The output stream and clock of a frame device (agent_map, then default_agent)."""
+    def _route(self, raw_id: str, frame_agent: str) -> tuple[_Device, DeviceClock]:
+        """The output stream and clock of a frame device.
+
+        Its agent comes from ``agent_map``, else from the frame (a source that knows
+        it), else ``default_agent``.
+        """
         route = self._routes.get(raw_id)
         if route is not None:
             return route
         target = next((v for pattern, v in self.params.agent_map.items()
-                       if fnmatch.fnmatchcase(raw_id, pattern)), self.params.default_agent)
+                       if fnmatch.fnmatchcase(raw_id, pattern)),
+                      frame_agent or self.params.default_agent)
         agent, _, name = target.partition("/")
         device = target if name else f"{agent}/imu"
         other = self._claimed.get(device)

@@ -335,6 +335,14 @@ def test_two_unmapped_devices_are_not_merged_into_one_stream():
     assert counts == {} and [d.code for d in diags] == ["imu_device_clash"]
 
 
+def test_frame_agent_from_the_source_is_used_when_agent_map_is_silent():
+    t, accel, gyro = motion(40)
+    frames = [RawFrame(t=f.t, agent="ff5", transport="can", channel=f.channel, data=f.data,
+                       device="can0") for f in encode_can_imu(t, accel, gyro, node=4)]
+    out, _, _ = run({"agent_map": {"can0/node0": "ff1/left"}}, frames)
+    assert {(b.agent, b.device) for b in out} == {("ff5", "ff5/imu")}
+
+
 def test_text_lines_in_device_units():
     t, accel, gyro = motion(50)
     frames = to_raw_frames(encode_imu_lines(t, accel / 9.80665, np.degrees(gyro)),
