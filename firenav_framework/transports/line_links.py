@@ -18,6 +18,8 @@ from ..messages import RawFrame
 from . import clock
 from .links import Link, LinkLost, enlarge_receive_buffer
 
+#: Bytes taken per read once data is there.
+READ_CHUNK = 65536
 #: Marks a line dropped for being too long (counted as a decode error, not recorded).
 OVERLONG = object()
 
@@ -88,9 +90,12 @@ class SerialLineLink(Link):
     def read(self, timeout: float) -> list[tuple[int, Any]]:
         if self.port is None:
             raise LinkLost("serial port is not open")
-        try:
+        try:  # wait for the first byte, then take whatever else is there
             self.port.timeout = timeout
-            data = self.port.read(max(1, self.port.in_waiting))
+            data = self.port.read(1)
+            if data:
+                self.port.timeout = 0
+                data += self.port.read(READ_CHUNK)
         except (serial.SerialException, OSError) as exc:
             raise LinkLost(f"serial {self.url}: {exc}") from exc
         if not data:

@@ -72,11 +72,15 @@ def test_serial_device_unplugged_and_back(running, tmp_path):
                   tmp_path, cid="uwb")
     try:
         assert dev.accepted.wait(30)
+        # pyserial discards input while it opens a port: send once the link is open
+        wait_for(lambda: src.source.link.port is not None, what="port open")
         dev.conn.sendall(b"".join(b"R %d\n" % i for i in range(10)))
         wait_for(lambda: len(src.frames()) >= 10, what="first lines")
         dev.unplug()
         wait_for(lambda: src.diagnostics("link_down"), what="link_down")
         assert dev.accepted.wait(30), "the source did not reconnect"
+        wait_for(lambda: [d for d in src.diagnostics("link_down") if not d.active],
+                 what="link back")
         dev.conn.sendall(b"".join(b"R %d\n" % i for i in range(10, 20)))
         wait_for(lambda: len(src.frames()) >= 20, what="lines after replug")
     finally:
