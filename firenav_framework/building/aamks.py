@@ -119,6 +119,30 @@ def _z_range(where: str, raw: Any) -> tuple[float, float]:
     return z0, z1
 
 
+def _mapping(at: str, value: Any, what: str) -> dict:
+    if value is None:
+        return {}
+    if not isinstance(value, dict) or not all(isinstance(v, dict) for v in value.values()):
+        raise BuildingError(f"{at}: {what} must be an object of named objects")
+    return value
+
+
+def _list(at: str, value: Any, what: str, of_dicts: bool = True) -> list:
+    if value is None:
+        return []
+    if not isinstance(value, list) or (of_dicts and not all(isinstance(v, dict) for v in value)):
+        raise BuildingError(f"{at}: {what} must be a list{' of objects' if of_dicts else ''}")
+    return value
+
+
+def _cm(at: str, meta: dict, key: str, default: float) -> float:
+    """A length in metres from an Aamks value in centimetres."""
+    value = meta.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise BuildingError(f"{at}: {key} must be a number of centimetres, got {value!r}")
+    return float(value) * CM
+
+
 def _floor_keys(where: str, floors: dict) -> list[str]:
     def key(k: str) -> float:
         try:
@@ -164,24 +188,25 @@ def _read_static(data: dict, where: str, notes: list[str]) -> list[dict]:
         if not isinstance(fl, dict):
             raise BuildingError(f"{at}: must be an object with rooms/doors/obstacles")
         meta = fl.get("floor_meta") or {}
-        z = float(meta.get("minz_abs", 0.0)) * CM
-        height = float(meta.get("zdim", DEFAULT_FLOOR_HEIGHT / CM)) * CM
+        if not isinstance(meta, dict):
+            raise BuildingError(f"{at}.floor_meta: must be an object")
+        z = _cm(f"{at}.floor_meta", meta, "minz_abs", 0.0)
+        height = _cm(f"{at}.floor_meta", meta, "zdim", DEFAULT_FLOOR_HEIGHT / CM)
         feats.append(_feat("floor", None, floor=i, z=z, height=height, name=str(meta.get("name", key))))
-        rooms = fl.get("rooms") or {}
         stairs: list[tuple[str, Polygon]] = []
-        for name, room in rooms.items():
+        for name, room in _mapping(at, fl.get("rooms"), "rooms").items():
             poly = _polygon(f"{at}.rooms[{name!r}]", room.get("points"))
             use = _ROOM_USE.get(room.get("type_sec", "ROOM"), "room")
             feats.append(_feat("room", _poly_geojson(poly), floor=i, id=f"{name}@{key}",
                                name=str(room.get("name", name)), use=use))
             if use == "stairwell":
                 stairs.append((name, poly))
-        for name, door in (fl.get("doors") or {}).items():
+        for name, door in _mapping(at, fl.get("doors"), "doors").items():
             kind = _DOOR_TYPES.get(door.get("type_sec", "DOOR"), "door")
             poly = _polygon(f"{at}.doors[{name!r}]", door.get("points"))
             feats.append(door_feature_from_rectangle(kind, f"{name}@{key}", i, poly))
         n_walls = n_obst = 0
-        for k, raw in enumerate(fl.get("obstacles") or []):
+        for k, raw in enumerate(_list(at, fl.get("obstacles"), "obstacles", of_dicts=False)):
             poly = _polygon(f"{at}.obstacles[{k}]", raw)
             if _is_wall(poly):
                 n_walls += 1
@@ -205,7 +230,7 @@ def _read_cad(data: dict, where: str, notes: list[str]) -> list[dict]:
         fl = data[key]
         at = f"{where}: [{key!r}]"
         zs = [_z_range(f"{at}.{t}[{k}]", item.get("z", "[0,0]"))
-              for t in _ROOM_USE for k, item in enumerate(fl.get(t) or [])]
+              for t in _ROOM_USE for k, item in enumerate(_list(at, fl.get(t), t))]
         z0 = min((z[0] for z in zs), default=i * DEFAULT_FLOOR_HEIGHT)
         z1 = max((z[1] for z in zs), default=z0 + DEFAULT_FLOOR_HEIGHT)
         levels.append((z0, z1 - z0 if z1 > z0 else DEFAULT_FLOOR_HEIGHT))
@@ -215,21 +240,21 @@ def _read_cad(data: dict, where: str, notes: list[str]) -> list[dict]:
         sk = FloorSketch(i, levels[i][0], levels[i][1], key)
         stairs: list[tuple[str, Polygon]] = []
         for t, use in _ROOM_USE.items():
-            for k, item in enumerate(fl.get(t) or []):
+            for k, item in enumerate(_list(at, fl.get(t), t)):
                 poly = _polygon(f"{at}.{t}[{k}]", item.get("points"))
                 ident = f"{t.lower()}{item.get('idx', k)}@{key}"
                 sk.room(ident, list(poly.exterior.coords)[:-1], use=use)
                 if use == "stairwell":
                     stairs.append((ident, poly))
         for t, kind in _DOOR_TYPES.items():
-            for k, item in enumerate(fl.get(t) or []):
+            for k, item in enumerate(_list(at, fl.get(t), t)):
                 poly = _polygon(f"{at}.{t}[{k}]", item.get("points"))
                 door = door_feature_from_rectangle(kind, f"{t.lower()}{item.get('idx', k)}@{key}", i, poly)
                 a, b = np.asarray(door["geometry"]["coordinates"])
                 d = b - a
                 sk.door(door["properties"]["id"], tuple((a + b) / 2), float(np.hypot(*d)),
                         (-d[1], d[0]), kind=kind)
-        for k, item in enumerate(fl.get("OBST") or []):
+        for k, item in enumerate(_list(at, fl.get("OBST"), "OBST")):
             poly = _polygon(f"{at}.OBST[{k}]", item.get("points"))
             sk.obstacle(f"obst{item.get('idx', k)}@{key}", list(poly.exterior.coords)[:-1])
         feats += sk.features()
@@ -242,11 +267,11 @@ def _read_obstacles_only(data: dict, where: str, notes: list[str]) -> list[dict]
     obstacles = data["obstacles"]
     if isinstance(obstacles, list):
         obstacles = {"0": obstacles}
-    static = {"floors": {k: {"floor_meta": {"minz_abs": i * DEFAULT_FLOOR_HEIGHT / CM},
-                             "obstacles": v}
-                         for i, (k, v) in enumerate(sorted(obstacles.items(), key=lambda kv: kv[0]))}}
     if not all(isinstance(v, list) for v in obstacles.values()):
         raise BuildingError(f"{where}: 'obstacles' must map floor names to lists of polygons")
+    static = {"floors": {k: {"floor_meta": {"name": k, "minz_abs": i * DEFAULT_FLOOR_HEIGHT / CM},
+                             "obstacles": obstacles[k]}
+                         for i, k in enumerate(_floor_keys(where, obstacles))}}
     notes.append(f"obstacles-only file: floors assumed {DEFAULT_FLOOR_HEIGHT} m apart from z = 0")
     return _read_static(static, where, notes)
 

@@ -116,17 +116,22 @@ def _xy(points: Any, scale: float) -> np.ndarray:
 
 
 def _vertices(e: Any, scale: float) -> tuple[np.ndarray, bool] | None:
-    """(points (K, 2) [m], closed) of a linear entity, or None if it is not one."""
+    """(points (K, 2) [m], closed) of a linear entity, or None if it is not one. Arcs and
+    polyline bulges are flattened to within ``ARC_SAGITTA``."""
+    from ezdxf import path
+
     t = e.dxftype()
     if t == "LINE":
         return _xy([e.dxf.start, e.dxf.end], scale), False
-    if t == "LWPOLYLINE":
-        return _xy(e.get_points("xy"), scale), bool(e.closed)
-    if t == "POLYLINE" and not (e.is_3d_polyline or e.is_poly_face_mesh or e.is_polygon_mesh):
-        return _xy([v.dxf.location for v in e.vertices], scale), bool(e.is_closed)
-    if t == "ARC":
-        return _xy(e.flattening(ARC_SAGITTA / scale), scale), False
-    return None
+    if t == "POLYLINE" and (e.is_3d_polyline or e.is_poly_face_mesh or e.is_polygon_mesh):
+        return None
+    if t not in ("LWPOLYLINE", "POLYLINE", "ARC"):
+        return None
+    pts = _xy(path.make_path(e).flattening(ARC_SAGITTA / scale), scale)
+    closed = t != "ARC" and bool(e.closed if t == "LWPOLYLINE" else e.is_closed)
+    if closed and len(pts) > 1 and np.allclose(pts[0], pts[-1]):
+        pts = pts[:-1]
+    return pts, closed
 
 
 def _point(e: Any, scale: float) -> np.ndarray | None:

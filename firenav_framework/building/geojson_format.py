@@ -22,7 +22,7 @@ from .georef import GeoRef
 from .model import (Anchor, Building, BuildingError, Door, Entrance, Floor, Obstacle, Room,
                     Stair)
 
-__all__ = ["read_geojson", "parse_geojson", "write_geojson", "dump_plan", "building_from_features", "KINDS",
+__all__ = ["read_geojson", "parse_geojson", "write_geojson", "dump_plan", "KINDS",
            "DEFAULT_FLOOR_HEIGHT"]
 
 KINDS = ("floor", "wall", "door", "opening", "room", "stair", "obstacle", "anchor",
@@ -86,6 +86,8 @@ def _parse_geometry(where: str, geom: Any) -> BaseGeometry | None:
         g = shape(_xy_only(geom))
     except Exception as exc:  # shapely raises assorted types for malformed input
         raise BuildingError(f"{where}: malformed {geom.get('type')} geometry ({exc})") from None
+    if g.is_empty:
+        raise BuildingError(f"{where}: empty {geom.get('type')} geometry")
     coords = np.array([c for part in _coords(g) for c in part], dtype=float).reshape(-1, 2)
     if not np.all(np.isfinite(coords)):
         raise BuildingError(f"{where}: geometry has NaN or infinite coordinates")
@@ -149,12 +151,11 @@ def parse_geojson(data: Any, *, where: str = "<plan>", source: Path | None = Non
                                 f"got {kind!r}")
         features.append(_Feature(at, kind, props, _parse_geometry(at, f.get("geometry"))))
     name = data.get("name") if isinstance(data.get("name"), str) else default_name
-    return building_from_features(features, name=name, source=source, where=where)
+    return _assemble(features, name=name, source=source, where=where)
 
 
-def building_from_features(features: list[_Feature], *, name: str, source: Path | None,
-                           where: str, notes: list[str] | None = None) -> Building:
-    """Assemble the model from parsed features (shared by the native and DXF readers)."""
+def _assemble(features: list[_Feature], *, name: str, source: Path | None, where: str) -> Building:
+    """The model from parsed features: floors first, then everything placed on them."""
     floors_meta: dict[int, tuple[float, float, str, BaseGeometry | None]] = {}
     for f in features:
         if f.kind == "floor":
@@ -183,10 +184,10 @@ def building_from_features(features: list[_Feature], *, name: str, source: Path 
         counters[f.kind] += 1
         return f.text("id") or f"{f.kind}{floor}_{counters[f.kind]}"
 
-    def floor_of(f: _Feature, key: str = "floor") -> int:
-        i = f.integer(key)
+    def floor_of(f: _Feature) -> int:
+        i = f.integer("floor")
         if i not in floors_meta:
-            raise f.fail(f"{key} {i} is not a declared floor (floors 0..{n - 1})")
+            raise f.fail(f"floor {i} is not a declared floor (floors 0..{n - 1})")
         return i
 
     for f in features:
@@ -222,8 +223,11 @@ def building_from_features(features: list[_Feature], *, name: str, source: Path 
             to = f.integer("floor_to")  # may name a missing floor: `map check` reports it
             z_from = floors_meta[fl][0]
             z_to = floors_meta[to][0] if to in floors_meta else z_from + floors_meta[fl][1]
+            n_steps = f.integer("n_steps", 0)
+            if n_steps < 0 or ("n_steps" in f.props and n_steps == 0):
+                raise f.fail(f"property 'n_steps' must be a positive count, got {n_steps}")
             bucket["stairs"].append(Stair(ident, fl, to, path, f.number("width", 1.0, positive=True),
-                                          z_from, z_to, f.integer("n_steps", 0)))
+                                          z_from, z_to, n_steps))
         elif f.kind == "anchor":
             p = np.asarray(f.geometry("Point").coords[0])
             z = floors_meta[fl][0] + f.number("height", 0.0)
@@ -256,7 +260,7 @@ def building_from_features(features: list[_Feature], *, name: str, source: Path 
     return _with_context(where, lambda: Building(name=name, floors=floors, anchors=anchors,
                                                  entrances=ents,
                                                  georef=georefs[0] if georefs else None,
-                                                 source=source, notes=list(notes or [])))
+                                                 source=source))
 
 
 def _with_context(where: str, make):

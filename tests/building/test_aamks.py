@@ -124,6 +124,11 @@ def test_real_cad_export_matches_static(shared_data):
     ({"floors": {"0": {"obstacles": [[[0, 0], [1, 0]]]}}}, r"obstacles\[0\]: points must be at least three"),
     ({"floors": {"0": {"rooms": {"r": {"points": [[0, 0], [1, "x"], [1, 1]]}}}}}, r"rooms\['r'\]: points must be a list"),
     ({"floors": {"ground": {}}}, r"floor name 'ground' is not a number"),
+    ({"floors": {"0": {"floor_meta": {"zdim": "tall"}}}}, r"floors\['0'\]\.floor_meta: zdim must be a number of centimetres"),
+    ({"floors": {"0": {"rooms": [[0, 0]]}}}, r"floors\['0'\]: rooms must be an object of named objects"),
+    ({"floors": {"0": {"obstacles": {"a": 1}}}}, r"obstacles must be a list"),
+    ({"obstacles": {"1": "[[0, 0]]"}}, r"'obstacles' must map floor names to lists of polygons"),
+    ({"0": {"ROOM": ["[[0,0],[1,0],[1,1]]"]}}, r"\['0'\]: ROOM must be a list of objects"),
     ({"0": {"ROOM": [{"points": "[[0,0],[100,0],[100,100]]", "z": "[0"}]}}, r"z must be \[z0, z1\]"),
 ])
 def test_bad_aamks_files(tmp_path, data, message):

@@ -143,3 +143,23 @@ def test_bad_drawings(tmp_path):
         load_building(tmp_path / "door.dxf")
     with pytest.raises(BuildingError, match="only applies to DXF"):
         load_building(bundled_plan("flat_125"), tmp_path / "map.yaml")
+
+
+def test_arcs_and_bulges_are_flattened(tmp_path):
+    doc = ezdxf.new()
+    msp = doc.modelspace()
+    # A 4 x 4 m room whose east side is a half-circle bay (bulge 1) of radius 2 m.
+    msp.add_lwpolyline([(0, 0, 0, 0, 0), (4, 0, 0, 0, 1), (4, 4, 0, 0, 0), (0, 4, 0, 0, 0)],
+                       format="xyseb", close=True, dxfattribs={"layer": "WALL"})
+    msp.add_arc((2, 6), 1.0, 0, 180, dxfattribs={"layer": "WALL"})
+    doc.saveas(tmp_path / "bay.dxf")
+    f = load_building(tmp_path / "bay.dxf").floor(0)
+
+    def on_circle(centre, r):      # ezdxf flattens via Bezier curves: within 1 mm of the arc
+        return f.walls[(np.abs(np.linalg.norm(f.walls - centre, axis=2) - r) < 1e-3).all(axis=1)]
+    bay = on_circle([4.0, 2.0], 2.0)
+    assert len(bay) >= 8                                        # flattened into many chords
+    # Chord midpoints stay within the 5 cm sagitta of the true arc.
+    assert (2.0 - np.linalg.norm(bay.mean(axis=1) - [4.0, 2.0], axis=1)).max() <= 0.05
+    assert f.outline.area == pytest.approx(16 + np.pi * 2**2 / 2, rel=0.02)
+    assert len(on_circle([2.0, 6.0], 1.0)) >= 4

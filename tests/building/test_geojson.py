@@ -134,6 +134,8 @@ def _broken(**change):
     (_broken(index=5, id="hut"), r"duplicate id 'hut'"),
     (_broken(index=6, door="nope"), r"entrance names door 'nope'"),
     (_broken(index=7, lat=123.0), r"georef lat must be"),
+    (_broken(index=6, geometry={"type": "Point", "coordinates": []}), r"feature 6 \(id 'in'\): empty Point"),
+    (_broken(index=0, z="ground"), r"property 'z' must be a finite number"),
     ({"type": "FeatureCollection", "features": []}, r"no 'floor' features"),
     ({"type": "Feature"}, r"must be a GeoJSON FeatureCollection"),
 ])
@@ -154,3 +156,15 @@ def test_unreadable_files(tmp_path):
     other.write_text("x")
     with pytest.raises(BuildingError, match="unknown plan format '.txt'"):
         load_building(other)
+
+
+def test_stair_properties_are_checked(tmp_path):
+    doc = json.loads(json.dumps(HAND_MADE))
+    doc["features"].append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": [[1, 1], [3, 1]]},
+                            "properties": {"kind": "stair", "floor": 0, "id": "s", "floor_to": 1, "n_steps": -2}})
+    with pytest.raises(BuildingError, match=r"id 's'\): property 'n_steps' must be a positive count"):
+        load_building(write(tmp_path, doc))
+    doc["features"][-1]["properties"].pop("n_steps")
+    doc["features"][-1]["properties"]["width"] = 0
+    with pytest.raises(BuildingError, match=r"property 'width' must be > 0"):
+        load_building(write(tmp_path, doc))
