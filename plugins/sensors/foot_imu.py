@@ -53,7 +53,8 @@ _SCREEN_REPORTS = {
 #: Frame problems -> (diagnostic level, text).
 _FRAME_REPORTS = {
     "bad_frames": ("warning", "frames that could not be decoded skipped"),
-    "unknown_can_ids": ("warning", "CAN frames with ids the DBC does not describe skipped"),
+    "unknown_can_ids": ("info", "CAN frames with ids the DBC does not describe skipped "
+                                "(other devices on the bus, or a node missing from the DBC)"),
     "raw_imu_unscaled": ("error", "RAW_IMU packets skipped: set raw_accel_scale and "
                                   "raw_gyro_scale"),
     "incomplete_samples": ("warning", "samples missing some of their CAN frames dropped"),
@@ -61,6 +62,18 @@ _FRAME_REPORTS = {
 }
 _MAX_BUFFER = 4096  # samples collected from frames before a block is forced out
 _CHECK_WINDOW_S = 10.0  # at-rest checks give up after this much data
+
+
+@dataclass
+class _Pending:
+    """What a reporter has seen of one (device, problem) since its last diagnostic."""
+
+    agent: str
+    level: str
+    text: str
+    t: float = 0.0
+    n: int = 0
+    worst: float = 0.0
 
 
 class _Reporter:
@@ -74,28 +87,26 @@ class _Reporter:
         self.ctx = ctx
         self.interval = interval
         self._last: dict[tuple[str, str], float] = {}
-        self._pending: dict[tuple[str, str], list] = {}
+        self._pending: dict[tuple[str, str], _Pending] = {}
 
     def report(self, t: float, agent: str, device: str, code: str, n: int, text: str,
                level: str = "warning", worst: float = 0.0) -> None:
         key = (device, code)
-        p = self._pending.setdefault(key, [0, 0.0, agent, level, text, t])
-        p[0] += n
-        p[1] = max(p[1], worst)
-        p[5] = t
+        p = self._pending.setdefault(key, _Pending(agent, level, text))
+        p.t, p.n, p.worst = t, p.n + n, max(p.worst, worst)
         last = self._last.get(key)
         if last is None or t - last >= self.interval:
             self._emit(key)
 
     def _emit(self, key: tuple[str, str]) -> None:
-        n, worst, agent, level, text, t = self._pending.pop(key)
+        p = self._pending.pop(key)
         device, code = key
-        detail = f" (longest {worst:.2f} s)" if worst else ""
+        detail = f" (longest {p.worst:.2f} s)" if p.worst else ""
         since = self._last.get(key)
         window = f" since t={since:.1f} s" if since is not None else ""
-        self.ctx.diagnose(t, level, f"imu_{code}", f"{device or '?'}: {n} {text}{detail}{window}",
-                          agent=agent)
-        self._last[key] = t
+        self.ctx.diagnose(p.t, p.level, f"imu_{code}",
+                          f"{device or '?'}: {p.n} {p.text}{detail}{window}", agent=p.agent)
+        self._last[key] = p.t
 
     def flush(self) -> None:
         for key in list(self._pending):
