@@ -339,6 +339,13 @@ class SegmentIndex:
     def __len__(self) -> int:
         return len(self.segments)
 
+    @property
+    def cells(self) -> tuple[np.ndarray, np.ndarray]:
+        """The grid as CSR lists for compiled callers: ``(start, items)``; the segments of
+        cell (i, j) are ``items[start[c]:start[c + 1]]`` with ``c = j * nx + i``, cell (i, j)
+        covering x in origin[0] + [i, i + 1) * cell (and likewise y)."""
+        return self._start, self._items
+
     def _grid_args(self):
         return (self.segments, self._start, self._items, float(self.origin[0]),
                 float(self.origin[1]), self.cell, self.shape[0], self.shape[1])

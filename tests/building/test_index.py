@@ -131,3 +131,14 @@ def test_grid_agrees_with_shapely_away_from_touching(seed):
     graze &= ~ref
     ours = SegmentIndex(segs).crosses(p0, p1)
     assert np.array_equal(ours[~graze], ref[~graze])
+
+
+def test_cells_layout_is_the_documented_csr(room):
+    start, items = room.cells
+    nx, ny = room.shape
+    assert len(start) == nx * ny + 1 and start[-1] == len(items)
+    for w, seg in enumerate(ROOM):
+        for p in (seg[0], seg.mean(axis=0), seg[1]):
+            i, j = ((p - room.origin) // room.cell).astype(int)
+            c = j * nx + i
+            assert w in items[start[c]:start[c + 1]]
