@@ -63,8 +63,9 @@ class Rigid2D:
     @classmethod
     def rotation_about(cls, angle: float, center: np.ndarray) -> "Rigid2D":
         """Rotation by ``angle`` [rad] about ``center`` (2,) [m]."""
-        c = np.asarray(center, float)[:2]
-        return cls(angle, c - _rot(angle) @ c)
+        x, y = float(center[0]), float(center[1])
+        c, s = math.cos(angle), math.sin(angle)
+        return cls(angle, np.array([x - (c * x - s * y), y - (s * x + c * y)]))
 
     @classmethod
     def translation(cls, d: np.ndarray) -> "Rigid2D":

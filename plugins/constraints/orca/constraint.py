@@ -33,6 +33,7 @@ sensor's ``range`` port); the anchors' positions from the building.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 
@@ -48,6 +49,9 @@ __all__ = ["OrcaConstraint", "classify_rotation", "approach_angle", "line_crossi
 
 #: Angles this close to a threshold [rad] count as on it (bands are inclusive).
 _ANGLE_EPS = 1e-9
+#: Most team members an agent avoids at once (the nearest are not chosen: all recent ones
+#: up to this many, in name order).
+MAX_TEAM = 64
 
 
 def approach_angle(move: np.ndarray, wall: np.ndarray) -> float:
@@ -93,9 +97,10 @@ def classify_rotation(theta: float, min_rotation: float, max_rotation: float,
 @dataclass
 class _Agent:
     ranges: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # anchor -> (t, r, sigma)
-    position: np.ndarray | None = None      # last corrected position (2,)
-    velocity: np.ndarray | None = None      # last velocity (2,) [m/s]
-    t: float | None = None
+    start: np.ndarray | None = None         # last step: corrected start (3,) ...
+    end: np.ndarray | None = None           # ... and end (3,) [m]
+    dt: float = 1.0                         # ... its duration [s]
+    t: float | None = None                  # ... and time [s]
     last_dheading: float = 0.0              # INS heading change of the previous step [rad]
 
 
@@ -157,6 +162,9 @@ class OrcaConstraint(Constraint):
         building = self.ctx.building
         self._building = building
         self._anchors = {a.id: np.asarray(a.position, float) for a in building.anchors}
+        levels = [f.z for f in building.floors]
+        self._level_mids = [(a + b) / 2 for a, b in zip(levels, levels[1:])]
+        self._no_team = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
 
     def reset(self, agent: str) -> None:
         self.agents.reset(agent)
@@ -185,9 +193,9 @@ class OrcaConstraint(Constraint):
         turning = (p.turn_guard is not None and abs(step.odometry.dheading)
                    + abs(me.last_dheading) > p.turn_guard)
         me.last_dheading = step.odometry.dheading
-        pos, target = step.prev[:2].copy(), step.proposed[:2].copy()
-        floor_idx = int(self._building.floor_of_z(step.prev[2]))
-        if math.hypot(*(target - pos)) > p.max_speed * step.dt:
+        pos, target = step.prev[:2], step.proposed[:2]
+        floor_idx = bisect.bisect_right(self._level_mids, step.prev[2])
+        if math.hypot(target[0] - pos[0], target[1] - pos[1]) > p.max_speed * step.dt:
             # Wrong compartment: the agent lags implausibly far behind the INS (§2.2).
             return self._record(me, step, StepCorrection(position=step.proposed.copy(),
                                                          jump=True, event="orca_reset"))
@@ -221,7 +229,7 @@ class OrcaConstraint(Constraint):
             return self._record(me, step, StepCorrection(
                 position=_with_z(pos + step.dt * v_orca, step), event="orca_blocked"))
         c, s = math.cos(theta), math.sin(theta)
-        moved = pos + np.array([c * move[0] - s * move[1], s * move[0] + c * move[1]])
+        moved = np.array([pos[0] + c * move[0] - s * move[1], pos[1] + s * move[0] + c * move[1]])
         if abs(theta) < p.min_rotation:
             return self._record(me, step, StepCorrection(position=_with_z(moved, step),
                                                          event="orca_small"))
@@ -260,31 +268,33 @@ class OrcaConstraint(Constraint):
 
     # -- team -------------------------------------------------------------------------
     def _team(self, step: OdometryStep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions (M, 2), velocities (M, 2) and radii (M,) of the other team members."""
         p = self.params
+        if not p.avoid_team:
+            return self._no_team
         pos, vel = [], []
-        if p.avoid_team:
-            for name, other in self.agents.items():
-                if name == step.agent or other.position is None or other.t is None:
-                    continue
-                if abs(step.t - other.t) <= p.team_max_age:
-                    pos.append(other.position)
-                    vel.append(other.velocity)
-        n = len(pos)
-        return (np.array(pos, float).reshape(n, 2), np.array(vel, float).reshape(n, 2),
+        for name, other in self.agents.items():
+            if name == step.agent or other.t is None or abs(step.t - other.t) > p.team_max_age:
+                continue
+            if abs(other.end[2] - step.prev[2]) > 1.5:      # not on the same floor
+                continue
+            pos.append(other.end[:2])
+            vel.append((other.end[:2] - other.start[:2]) / other.dt)
+        n = min(len(pos), MAX_TEAM)
+        return (np.array(pos[:n], float).reshape(n, 2), np.array(vel[:n], float).reshape(n, 2),
                 np.full(n, p.radius))
 
     def _record(self, me: _Agent, step: OdometryStep, fix: StepCorrection | None
                 ) -> StepCorrection | None:
-        end = (step.proposed if fix is None else fix.position)[:2]
-        me.velocity = (end - step.prev[:2]) / step.dt
-        me.position = np.array(end, float)
-        me.t = step.t
+        me.start, me.end = step.prev, (step.proposed if fix is None else fix.position)
+        me.dt, me.t = step.dt, step.t
         return fix
 
     def _grid(self, floor_idx: int) -> WallGrid:
         grid = self._grids.get(floor_idx)
         if grid is None:
-            grid = self._grids[floor_idx] = WallGrid(self._building.floors[floor_idx])
+            grid = self._grids[floor_idx] = WallGrid(self._building.floors[floor_idx],
+                                                     max_agents=MAX_TEAM)
         return grid
 
 

@@ -181,11 +181,7 @@ class WallGrid:
 
     def __init__(self, floor, max_agents: int = 64):
         index = floor.wall_index
-        try:
-            start, items = index._start, index._items   # the grid's cell lists (CSR)
-        except AttributeError as exc:  # pragma: no cover - building model changed
-            raise RuntimeError("the building model's wall index no longer exposes its grid "
-                               "cells; orca needs them for its per-step query") from exc
+        start, items = index.cells   # the grid's cell lists (CSR)
         self.segs = np.ascontiguousarray(index.segments, dtype=np.float64)
         self.start = start
         self.items = items
