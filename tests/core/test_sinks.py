@@ -1,0 +1,47 @@
+"""Built-in sinks: track plot floors, diagnostics log."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from firenav_framework.building import bundled_plan, load_building
+from firenav_framework.messages import Diagnostic, PoseEstimate
+from firenav_framework.sinks.diagnostics_log import DiagnosticsLog
+from firenav_framework.sinks.track_plot import TrackPlot, floors_of
+from firenav_framework.testing import check_plugin, run_component
+from firenav_framework.tracks import TrackStore
+
+
+def pose(t, z, floor=None):
+    return PoseEstimate(t=t, agent="ff1", position=np.array([2.0 + t, 3.0, z]), heading=0.0,
+                        cov=np.eye(4) * 0.2, floor=floor)
+
+
+def test_floors_come_from_the_estimate_or_else_from_height():
+    building = load_building(bundled_plan("three_storey"))
+    store = TrackStore()
+    for t, z, floor in [(0, 0.0, None), (1, 3.4, None), (2, 7.1, None), (3, 0.0, 2)]:
+        store("pf.pose", pose(t, z, floor))
+    tr = store.tracks()["pf.pose"]["ff1"]
+    assert floors_of(tr, building).tolist() == [0, 1, 2, 2]
+    assert floors_of(tr, None).tolist() == [0, 0, 0, 2]
+
+
+def test_track_plot_writes_a_png_per_run(tmp_path):
+    building = load_building(bundled_plan("three_storey"))
+    msgs = [("pf.pose", pose(t, 0.0 if t < 5 else 3.5)) for t in range(10)]
+    check_plugin(TrackPlot, {"ellipse_every": 2.0}, sample_input=msgs, building=building,
+                 output_dir=tmp_path)
+    png = (tmp_path / "tracks.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_diagnostics_log_writes_one_json_object_per_line(tmp_path):
+    d = Diagnostic(t=1.5, agent="ff2", component="pf", level="warning", code="map_error",
+                   text="estimate not trustworthy")
+    run_component(DiagnosticsLog, {}, [("pf.diagnostics", d)], output_dir=tmp_path)
+    (line,) = (tmp_path / "diagnostics.jsonl").read_text().splitlines()
+    assert json.loads(line) == {"t": 1.5, "stream": "pf.diagnostics", "component": "pf",
+                                "agent": "ff2", "level": "warning", "code": "map_error",
+                                "active": True, "text": "estimate not trustworthy"}
