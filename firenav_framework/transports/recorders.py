@@ -25,10 +25,11 @@ import datetime as _dt
 import os
 import re
 import struct
+import threading
 import time
 from abc import ABC, abstractmethod
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, Callable
 
 import can
 
@@ -90,6 +91,10 @@ class RotatingRecorder(ABC):
     @abstractmethod
     def _fileno(self) -> int | None: ...
 
+    @abstractmethod
+    def _detach(self) -> Callable[[], None]:
+        """Forget the current file; return a function that closes it (run in a thread)."""
+
     # -- the life cycle --------------------------------------------------------------
     def write(self, t_us: int, item: Any) -> None:
         """Record one arrival received at ``t_us`` (UNIX microseconds)."""
@@ -129,7 +134,12 @@ class RotatingRecorder(ABC):
                 pass
 
     def _rotate(self) -> None:
-        self.close()
+        if self._open_path is not None:  # sync the full file off the reading thread:
+            self._flush()                # an fsync of a 64 MiB file can take seconds
+            fd = self._fileno()
+            closer = self._detach()
+            self._open_path = None
+            threading.Thread(target=_sync_and_close, args=(fd, closer), daemon=True).start()
         stamp = _dt.datetime.now().strftime("%Y%m%dT%H%M%S")
         path = self.folder / f"{self.prefix}-{self._index:04d}-{stamp}{self.suffix}"
         self._index += 1
@@ -139,6 +149,15 @@ class RotatingRecorder(ABC):
         self._opened_at = time.monotonic()
         self._next_flush = self._opened_at + self.flush_s
         self._rotate_due = False
+
+
+def _sync_and_close(fd: int | None, closer) -> None:
+    if fd is not None:
+        try:
+            os.fsync(fd)
+        except OSError:
+            pass
+    closer()
 
 
 class CanRecorder(RotatingRecorder):
@@ -171,6 +190,10 @@ class CanRecorder(RotatingRecorder):
         self._writer.stop()
         self._writer = None
 
+    def _detach(self):
+        writer, self._writer = self._writer, None
+        return writer.stop
+
     def _fileno(self) -> int | None:
         fh = getattr(self._writer, "file", None)
         return fh.fileno() if fh is not None and not fh.closed else None
@@ -194,6 +217,10 @@ class _FileRecorder(RotatingRecorder):
     def _close(self) -> None:
         self._fh.close()
         self._fh = None
+
+    def _detach(self):
+        fh, self._fh = self._fh, None
+        return fh.close
 
     def _fileno(self) -> int | None:
         return self._fh.fileno() if self._fh is not None else None
