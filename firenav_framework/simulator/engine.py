@@ -101,7 +101,8 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
         truth[agent.id] = AgentTruth(
             agent=agent.id, t=tt, position=pos, heading=hd,
             floor=np.asarray(b.floor_of_z(pos[:, 2]), int), motion=body.motion_at(tt),
-            foot=kin, strides=table, person=w.person.model_dump())
+            foot=kin, strides=table, person=w.person.model_dump(),
+            checkpoints=[c for c in w.checkpoints if c.t_end <= t_end])
 
     messages: dict[str, list] = {"truth": _truth_messages(truth)}
     extra: dict[str, list] = {}

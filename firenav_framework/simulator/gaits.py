@@ -2,7 +2,7 @@
 
 Defaults come from gait literature and the reference papers: normal walking at
 1.3 m/s with a 1.4 m stride; careful walking in smoke at 0.3-0.8 m/s (the issue; the
-breadcrumb paper's "trail step", Sec. V-C); searching at about 0.4 m/s; knee-walking
+breadcrumb paper's "trail step", Sec. V-C); searching at about 0.5 m/s; knee-walking
 and crawling far slower with the foot kept low and long stances; stairs one step per
 foot (a stride spans two treads), descended forwards or backwards (search-pattern
 paper Sec. II; RFID paper, gait classes FW/SC/SDF/SDB). A scenario may override any
@@ -42,7 +42,7 @@ GAITS: dict[str, Gait] = {
     "brisk": Gait(speed=1.6, stride=1.6, swing_s=0.65, clearance=0.13, toe_off_deg=50),
     "slow": Gait(speed=0.5, stride=0.85, swing_s=0.80, clearance=0.08, toe_off_deg=30,
                  heel_strike_deg=12),
-    "search": Gait(speed=0.4, stride=0.75, swing_s=0.85, clearance=0.07, toe_off_deg=25,
+    "search": Gait(speed=0.5, stride=0.8, swing_s=0.85, clearance=0.07, toe_off_deg=25,
                    heel_strike_deg=10),
     "trail_step": Gait(speed=0.3, stride=0.6, swing_s=0.9, clearance=0.05, toe_off_deg=15,
                        heel_strike_deg=8, sway=0.01),

@@ -3,7 +3,7 @@
 The planner (:mod:`.planner`) turns a scenario plan into :class:`Leg` objects: routes on
 one floor, pauses (standing or kneeling), stair flights. A :class:`Walker` executes
 them for one person: it places the instrumented foot's footfalls along each route
-(stride length, cadence, turns of at most 45 degrees per stride, on-the-spot pivots at
+(stride length, cadence, turns of at most 60 degrees per stride, on-the-spot pivots at
 sharp corners, foot beside the path line with a toe-out angle, stride-to-stride
 jitter), sets the stance and swing durations, and records where the body is (knots at
 every footfall) so that the ground truth can be sampled at any rate.
@@ -24,8 +24,9 @@ from .gaits import (GAITS, KNEEL_IMU_HEIGHT, KNEEL_PITCH, POSTURE_CHANGE_S, STAI
                     Gait, Person)
 from .geometry import fillet, resample
 
-#: Largest heading change of one stride [rad]; sharper turns take several strides.
-MAX_TURN_PER_STRIDE = np.radians(45.0)
+#: Largest heading change of one stride of the instrumented foot (two steps) [rad];
+#: sharper turns take several strides.
+MAX_TURN_PER_STRIDE = np.radians(60.0)
 #: Corner radius people walk [m].
 CORNER_RADIUS = 0.35
 
@@ -37,7 +38,8 @@ class Leg:
     ``kind``: ``"move"`` (``path`` (M, 2) body route starting at the body position,
     walked with ``gait``, facing backwards if ``backwards``), ``"pause"`` (``duration``
     [s] in ``posture``), ``"turn"`` (on the spot to ``heading`` [rad]) or ``"stairs"``
-    (``stair`` walked up or down, descending ``backwards`` if set). ``deploy`` lists
+    (``stair`` walked up or down, descending ``backwards`` if set). A pause may mark a
+    ``checkpoint`` (its name; the true position is recorded). ``deploy`` lists
     tags (id, true position (3,)) attached during a pause. ``where`` is the plan path
     (for error messages).
     """
@@ -53,6 +55,7 @@ class Leg:
     up: bool = True
     deploy: list[tuple[str, np.ndarray]] = field(default_factory=list)
     heading: float = 0.0
+    checkpoint: str = ""
     where: tuple = ()
 
 
@@ -63,6 +66,22 @@ class Deployment:
     t: float
     tag_id: str
     position: np.ndarray
+
+
+@dataclass
+class CheckpointRecord:
+    """A marked stop: the body stood at ``position`` (3,) from ``t_start`` to ``t_end``."""
+
+    name: str
+    t_start: float
+    t_end: float
+    position: np.ndarray
+    heading: float
+
+    @property
+    def t(self) -> float:
+        """The middle of the stop [s]: when the position is compared."""
+        return 0.5 * (self.t_start + self.t_end)
 
 
 @dataclass
@@ -112,6 +131,7 @@ class Walker:
         self.swings: list[tuple] = []
         self.knots: list[tuple] = []
         self.deployments: list[Deployment] = []
+        self.checkpoints: list[CheckpointRecord] = []
         self._knot(self.t, "still")
 
     # -- helpers -------------------------------------------------------------------
@@ -188,6 +208,10 @@ class Walker:
                                                    tag, np.asarray(pos, float)))
         self.t = t_start + leg.duration
         self._knot(self.t, "still")
+        if leg.checkpoint:
+            self.checkpoints.append(CheckpointRecord(
+                leg.checkpoint, t_start, self.t,
+                np.array([self.xy[0], self.xy[1], self.z_ground]), self.heading))
 
     def move(self, leg: Leg) -> None:
         gait = self._gait(leg.gait)
@@ -230,7 +254,7 @@ class Walker:
         self._footfalls(xy, hi, z, stance, swing, np.full(n, LEVEL), gait, leg.gait)
 
     def turn(self, heading: float) -> None:
-        """Turn on the spot to ``heading`` [rad], at most 45 degrees per stride."""
+        """Turn on the spot to ``heading`` [rad], at most 60 degrees per stride."""
         delta = _wrap(heading - self.heading)
         n = int(np.ceil(abs(delta) / MAX_TURN_PER_STRIDE))
         if n == 0:

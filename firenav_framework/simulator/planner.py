@@ -145,6 +145,9 @@ class Planner:
             self._stairs_to(spec, st, legs, deploy, step.where + (k,))
         elif k == "turn":
             self._turn(spec, st, legs, step.where)
+        elif k == "checkpoint":
+            legs.append(Leg("pause", st.floor, duration=spec.stop_s, checkpoint=spec.name,
+                            where=step.where))
         elif k == "repeat":
             for _ in range(spec.times):
                 for sub in step.plan:
@@ -281,7 +284,8 @@ class Planner:
         loop = _cut(loop, total)
         approach = self.router(st.floor).route(st.xy, loop[0])
         path = np.vstack([approach, loop[1:]])
-        self._move(path, st, legs, spec.gait, False, spec.stops, deploy)
+        self._move(path, st, legs, spec.gait, False, spec.stops, deploy,
+                   kneel_at_doors=spec.kneel_at_doors_s)
 
     def _compartmental(self, spec: CompartmentalSearch, st: _State, legs: list[Leg], deploy,
                        where: tuple) -> None:
@@ -332,13 +336,19 @@ class Planner:
 
     # -- moves -----------------------------------------------------------------------
     def _move(self, path: np.ndarray, st: _State, legs: list[Leg], gait: str, backwards: bool,
-              stops: Stops | None, deploy) -> None:
+              stops: Stops | None, deploy, kneel_at_doors: float = 0.0) -> None:
         path = np.asarray(path, float)
         if np.linalg.norm(path[0] - st.xy) > 1e-6:
             path = np.vstack([st.xy, path])
         if polyline_length(path) < 0.05:
             return
         cuts: list[tuple[float, Leg]] = []
+        if kneel_at_doors > 0:
+            for c in self.b.floor(st.floor).door_crossings(path):
+                s_door = _arc_at_crossing(path, c.index, self.b.door(c.door))
+                cuts.append((max(0.0, s_door - 0.5), Leg("pause", st.floor,
+                                                         duration=kneel_at_doors,
+                                                         posture="kneel")))
         if deploy is not None:
             for c in self.b.floor(st.floor).door_crossings(path):
                 door = self.b.door(c.door)

@@ -48,6 +48,7 @@ class AgentTruth:
     Body (sampled at the truth rate): ``t`` (N,), ``position`` (N, 3) ENU [m] of the
     ground under the body, ``heading`` (N,) [rad] facing direction, ``floor`` (N,),
     ``motion`` (N,) label. Foot (every IMU sample): ``foot`` kinematics, ``strides``.
+    ``checkpoints``: the marked stops (:class:`~.movement.CheckpointRecord`).
     """
 
     agent: str
@@ -59,6 +60,7 @@ class AgentTruth:
     foot: FootKinematics | None = None
     strides: StrideTable | None = None
     person: dict[str, Any] = field(default_factory=dict)
+    checkpoints: list[Any] = field(default_factory=list)
 
     @property
     def distance_m(self) -> float:
@@ -97,11 +99,13 @@ class SimulationResult:
     def stream(self, block_s: float = 0.1, ports: set[str] | None = None
                ) -> Iterator[tuple[str, Message]]:
         """Every message as (port, message), all ports merged in time order."""
+        def tagged(port: str, msgs) -> Iterator[tuple[str, Message]]:
+            for m in msgs:
+                yield port, m
+
         its = []
         if ports is None or "imu" in ports:
-            for rec in self.imu.values():
-                its.append((("imu", b) for b in rec.blocks(block_s)))
-        for port, msgs in self.messages.items():
-            if ports is None or port in ports:
-                its.append(((port, m) for m in msgs))
+            its += [tagged("imu", rec.blocks(block_s)) for rec in self.imu.values()]
+        its += [tagged(port, msgs) for port, msgs in self.messages.items()
+                if ports is None or port in ports]
         yield from heapq.merge(*its, key=lambda pm: pm[1].t)

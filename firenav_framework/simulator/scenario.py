@@ -18,7 +18,8 @@ A scenario is a YAML mapping (full reference with examples: ``docs/scenarios.md`
         sensors: {imu: {grade: xsens_mti3}}
 
 Plan steps are one-key mappings (``wait``, ``kneel``, ``walk``, ``crawl``, ``search``,
-``compartmental_search``, ``stairs``, ``turn``, ``repeat``); see :data:`STEP_MODELS`.
+``compartmental_search``, ``stairs``, ``turn``, ``checkpoint``, ``repeat``); see
+:data:`STEP_MODELS`.
 Every problem is reported as ``file:line:col: where: message`` through
 :class:`~firenav_framework.yaml_locations.ConfigError`.
 """
@@ -251,6 +252,8 @@ class Search(_Model):
     laps: float = Field(1.0, gt=0, le=20)
     length_m: float | None = Field(None, gt=0, description="stop after this distance")
     stops: Stops | None = None
+    kneel_at_doors_s: float = Field(0.0, ge=0, le=60, description="kneel this long in each "
+                                    "doorway before going through (flashover drill, Sec. II)")
 
 
 class CompartmentalSearch(_Model):
@@ -275,6 +278,14 @@ class Turn(_Model):
     by_deg: float | None = None
 
 
+class Checkpoint(_Model):
+    """Stop on a marked point for ``stop_s``; its true position is recorded (sparse
+    ground truth, like the surveyed stop points of the ORCA paper, Sec. 3.2)."""
+
+    name: str = Field(min_length=1)
+    stop_s: float = Field(3.0, ge=0, le=600)
+
+
 class Repeat(_Model):
     times: int = Field(2, ge=1, le=100)
     plan: list[Any]
@@ -283,7 +294,7 @@ class Repeat(_Model):
 STEP_MODELS: dict[str, type[BaseModel] | type] = {
     "wait": float, "kneel": float, "walk": Walk, "crawl": Crawl, "search": Search,
     "compartmental_search": CompartmentalSearch, "stairs": Stairs, "turn": Turn,
-    "repeat": Repeat,
+    "checkpoint": Checkpoint, "repeat": Repeat,
 }
 
 
@@ -422,6 +433,8 @@ def _steps(doc: LocatedDocument, items: Any, base: tuple, problems: list[Problem
                 continue
             out.append(Step(kind, float(value), where))
             continue
+        if kind == "checkpoint" and isinstance(value, str):
+            value = {"name": value}
         try:
             spec = model.model_validate(value if value is not None else {})
         except ValidationError as exc:

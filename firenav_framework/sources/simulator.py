@@ -1,0 +1,115 @@
+"""The ``simulator`` source: a scenario run played into a pipeline.
+
+Ports (only those the scenario produces are declared): ``imu`` (ImuBlock per foot
+IMU, device id ``<agent>/imu``, in the device axes the scenario declares, FLU by
+default), ``uwb`` (Range, ``a=<agent>/uwb``, ``b=<anchor>``), ``rssi``
+(RssiReading among breadcrumbs, base station and firefighters' radios), ``drops``
+(BreadcrumbDrop), ``rfid`` (TagDetection), ``tags`` (TagDeployment), ``truth``
+(GroundTruth per agent at the scenario's truth rate, with the floor).
+The source brings the scenario's building, so map-aided plugins need no
+``building:`` line.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+from ..components import Params, Source, param
+from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range, RssiReading,
+                        TagDeployment, TagDetection)
+from ..yaml_locations import ConfigError
+
+PORTS: dict[str, type[Message]] = {
+    "imu": ImuBlock, "uwb": Range, "rssi": RssiReading, "drops": BreadcrumbDrop,
+    "rfid": TagDetection, "tags": TagDeployment, "truth": GroundTruth,
+}
+
+
+def scenario_ports(scenario) -> set[str]:
+    """The ports a scenario produces (truth always)."""
+    m = scenario.model
+    ports = {"truth"}
+    if any(a.sensors.imu is not None for a in m.agents):
+        ports.add("imu")
+    if any(a.sensors.uwb is not None for a in m.agents):
+        ports.add("uwb")
+    if any(a.sensors.rfid is not None for a in m.agents):
+        ports |= {"rfid", "tags"}
+    dispensers = any(a.sensors.dispenser is not None for a in m.agents)
+    radios = [a for a in m.agents if a.sensors.radio]
+    if dispensers or radios:
+        ports |= {"rssi", "drops"} if dispensers else {"rssi"}
+    return ports
+
+
+class SimulatorSource(Source):
+    """Simulate a scenario (bundled name or YAML file) and play its sensor streams."""
+
+    name = "simulator"
+    provides_building = True
+    input_param = "scenario"
+
+    class Params(Params):
+        scenario: str = param("flat_search", description="scenario file (relative to the "
+                              "pipeline file) or bundled scenario name; see `firenav "
+                              "simulate --list`")
+        seed: int = param(0, ge=0, description="random seed: the same seed gives the same run")
+        duration: float | None = param(None, unit="s", gt=0, description="stop after this "
+                                       "long (default: the scenario's own end)")
+        block_s: float = param(0.1, unit="s", gt=0, le=10,
+                               description="length of the ImuBlock pieces")
+
+    @classmethod
+    def output_ports(cls, params: Params) -> dict[str, type[Message]]:
+        scenario = _try_load(params.scenario)
+        ports = PORTS if scenario is None else {
+            p: t for p, t in PORTS.items() if p in scenario_ports(scenario)}
+        return {**ports, **super().output_ports(params)}
+
+    def __init__(self, params: Params, ctx):
+        super().__init__(params, ctx)
+        from ..simulator import load_scenario, simulate
+        from ..simulator.scenario import SCENARIO_DIR
+        path = ctx.resolve(params.scenario)
+        if not path.is_file() and (SCENARIO_DIR / f"{params.scenario}.yaml").is_file():
+            path = SCENARIO_DIR / f"{params.scenario}.yaml"
+        self.scenario = load_scenario(path if path.is_file() else params.scenario)
+        self.result = simulate(self.scenario, params.seed, duration_s=params.duration)
+        self._ports = scenario_ports(self.scenario)
+
+    def building(self):
+        return self.result.building
+
+    def duration(self) -> tuple[float, float]:
+        return 0.0, self.result.t_end
+
+    def messages(self) -> Iterator[tuple[str, Message]]:
+        r = self.result
+        saturated = sum(int(rec.saturated.sum()) for rec in r.imu.values())
+        self.ctx.count("saturated_imu_samples", saturated)
+        yield "diagnostics", Diagnostic(
+            t=0.0, component=self.ctx.id, level="info", code="simulation",
+            text=f"scenario '{self.scenario.name}' seed {r.seed}: {len(r.truth)} agents, "
+                 f"{r.t_end:.0f} s, {len(r.breadcrumbs)} breadcrumbs, {len(r.tags)} tags, "
+                 f"{saturated} saturated IMU samples")
+        yield from r.stream(self.params.block_s, self._ports)
+
+
+def _try_load(name_or_path: str):
+    """The scenario if it can be found without the pipeline's folder, else None.
+
+    A scenario that is found but invalid raises ValueError with its file:line problems,
+    which the pipeline validator shows at the ``scenario`` parameter.
+    """
+    from ..simulator import load_scenario
+    from ..simulator.scenario import SCENARIO_DIR
+    p = Path(name_or_path).expanduser()
+    if not p.is_file() and not (SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
+        return None
+    try:
+        return load_scenario(name_or_path)
+    except ConfigError as exc:
+        raise ValueError("invalid scenario: " + "; ".join(str(p) for p in exc.problems)) from None
+
+
+PLUGINS = [SimulatorSource]
