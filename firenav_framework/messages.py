@@ -30,7 +30,7 @@ import numpy as np
 __all__ = [
     "Message", "RawFrame", "ImuBlock", "Range", "RssiReading", "TagDetection",
     "TagDeployment", "BreadcrumbDrop", "Odometry", "PoseEstimate", "Diagnostic",
-    "GroundTruth", "Tick", "MESSAGE_TYPES", "POSE_COV_AXES",
+    "GroundTruth", "Tick", "MESSAGE_TYPES", "POSE_COV_AXES", "IMU_FLAG_BITS",
 ]
 
 #: Order of the axes in the 4x4 covariance carried by Odometry and PoseEstimate.
@@ -266,11 +266,17 @@ class Diagnostic(Message):
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class GroundTruth(Message):
-    """The true pose of ``agent`` (simulator or surveyed checkpoint), ENU building frame."""
+    """The true pose of ``agent`` (simulator or surveyed checkpoint).
+
+    ``frame`` names the frame of ``position``: ``"building"`` (the ENU building frame
+    the estimates use) or another name (``"vicon"``, ``"survey"``) for truth that can
+    only be compared with an estimate after aligning the two frames.
+    """
 
     position: np.ndarray
     heading: float = float("nan")
     floor: int | None = None
+    frame: str = "building"
     kind: ClassVar[str] = "ground_truth"
 
 

@@ -14,9 +14,10 @@ def summary_dict(result: RunResult) -> dict:
     for stream, agents in result.tracks.items():
         for agent, tr in agents.items():
             truth = result.truth.get(agent)
-            if truth is not None:
+            if truth is not None and truth.frame == "building":
                 errors.setdefault(stream, {})[agent] = error_stats(
                     horizontal_errors(tr, truth)[1]).as_dict()
+    other_frames = sorted({t.frame for t in result.truth.values() if t.frame != "building"})
     return {
         "pipeline": result.pipeline,
         "data_s": round(result.duration_s, 3),
@@ -25,6 +26,7 @@ def summary_dict(result: RunResult) -> dict:
         "faults": [vars(f) for f in result.faults],
         "tracks": tracks,
         "track_error": errors,
+        "truth_in_other_frames": other_frames,
     }
 
 
@@ -44,6 +46,10 @@ def format_summary(result: RunResult) -> str:
     lines += ["", "Tracks:"]
     lines += [f"  {s}  {a}: {v['poses']} poses, {v['length_m']:.1f} m"
               for s, agents in d["tracks"].items() for a, v in agents.items()] or ["  none"]
+    if d["truth_in_other_frames"]:
+        lines += ["", f"Ground truth is in the {', '.join(d['truth_in_other_frames'])} frame, "
+                  "not the building frame: compare with `firenav evaluate`, which aligns "
+                  "the frames first."]
     if d["track_error"]:
         lines += ["", "Horizontal track error against ground truth:"]
         for s, agents in d["track_error"].items():

@@ -52,6 +52,8 @@ class Track:
     cov: np.ndarray
     floor: np.ndarray
     trusted: np.ndarray
+    #: Frame of the positions: "building" for estimates; truth may name another frame.
+    frame: str = "building"
 
     def __len__(self) -> int:
         return len(self.t)
@@ -67,8 +69,11 @@ class Track:
 class _Builder:
     def __init__(self) -> None:
         self.rows: list[tuple] = []
+        self.frame = "building"
 
     def add(self, msg: Message) -> None:
+        if isinstance(msg, GroundTruth):
+            self.frame = msg.frame
         if isinstance(msg, PoseEstimate):
             self.rows.append((msg.t, msg.position, msg.heading, msg.cov,
                               -1 if msg.floor is None else msg.floor, msg.trusted))
@@ -90,7 +95,8 @@ class _Builder:
                      heading=np.fromiter((r[2] for r in rows), float, n),
                      cov=cov,
                      floor=np.fromiter((r[4] for r in rows), int, n),
-                     trusted=np.fromiter((r[5] for r in rows), bool, n))
+                     trusted=np.fromiter((r[5] for r in rows), bool, n),
+                     frame=self.frame)
 
 
 class TrackStore:

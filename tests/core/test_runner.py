@@ -150,3 +150,11 @@ def test_progress_lines_show_the_fraction_done(tmp_path):
     lines = buf.getvalue().splitlines()
     assert lines[0].startswith("[firenav] t=1.0 s of 9 s (0%)")
     assert lines[-1].startswith("[firenav] t=10.0 s of 9 s (100%)")
+
+
+def test_truth_in_another_frame_is_not_compared_without_alignment(tmp_path):
+    res = run(pipeline().replace("plugin: script,", "plugin: script, truth_frame: vicon,"),
+              tmp_path)
+    d = summary_dict(res)
+    assert d["track_error"] == {} and d["truth_in_other_frames"] == ["vicon"]
+    assert "Ground truth is in the vicon frame" in format_summary(res)

@@ -28,11 +28,13 @@ class ScriptSource(Source):
     class Params(Params):
         steps: list[tuple[float, str, float]] = param([], description="(t, agent, dx) rows")
         path: str = param("", description="unused file path, for --input tests")
+        truth_frame: str = param("building", description="frame named by the truth messages")
 
     def messages(self):
         for t, agent, dx in self.params.steps:
             yield "odo", step(t, agent, dx)
-            yield "truth", GroundTruth(t=t, agent=agent, position=np.array([t, 0.0, 0.0]))
+            yield "truth", GroundTruth(t=t, agent=agent, position=np.array([t, 0.0, 0.0]),
+                                       frame=self.params.truth_frame)
 
 
 class LiveSource(Source):

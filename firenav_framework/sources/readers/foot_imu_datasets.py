@@ -248,7 +248,8 @@ def read_vicon_trial(path: Path, options: ReadOptions) -> _MatRecording:
     def truth() -> Iterator[tuple[str, Message]]:
         for i in _decimation(trial.ts):
             yield "truth", GroundTruth(t=float(trial.ts[i]), agent=options.agent,
-                                       device="vicon", position=trial.gt[i].copy())
+                                       device="vicon", position=trial.gt[i].copy(),
+                                       frame="vicon")
 
     return _MatRecording(trial.ts, [_imu_port(trial.ts, trial.imu, options), truth()])
 
@@ -260,7 +261,7 @@ def read_indoor_walk(path: Path, options: ReadOptions) -> _MatRecording:
     def truth() -> Iterator[tuple[str, Message]]:
         for t, (x, y) in zip(walk.stride_times, walk.gcp):
             yield "truth", GroundTruth(t=float(t), agent=options.agent, device="gcp",
-                                       position=np.array([x, y, 0.0]))
+                                       position=np.array([x, y, 0.0]), frame="survey")
 
     def reference() -> Iterator[tuple[str, Message]]:
         cov = np.full((4, 4), np.nan)
