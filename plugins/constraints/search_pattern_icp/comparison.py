@@ -30,7 +30,7 @@ from scipy.spatial import cKDTree
 
 from firenav_framework.building.search_patterns import SearchPatterns
 
-from .icp import icp_batch
+from .icp import icp_batch, pattern_segments
 from .principal import principal_rotation
 
 __all__ = ["Observations", "PatternComparison"]
@@ -63,6 +63,7 @@ class PatternComparison:
                  max_iter: int = 30, tol: float = 1e-4):
         self.patterns = patterns
         self.sub = patterns.subpatterns(length_m)
+        self._segments = pattern_segments(self.sub.points)
         self.max_iter, self.tol = max_iter, tol
         k = len(self.sub)
         self.entry_node = np.empty(2 * k, dtype=np.int64)
@@ -101,7 +102,8 @@ class PatternComparison:
             sel = np.repeat(self._axis == axis, 4)
             init[sel] = np.tile(phi + _FOUR, int(sel.sum()) // 4)
         rmse, theta, trans, _ = icp_batch(odo_xy, self.sub.points, self._cand_pattern, init,
-                                          max_iter=self.max_iter, tol=self.tol)
+                                          max_iter=self.max_iter, tol=self.tol,
+                                          segments=self._segments)
         last = odo_xy[-1]
         c, s = np.cos(theta), np.sin(theta)
         xt = np.column_stack([c * last[0] - s * last[1], s * last[0] + c * last[1]]) + trans

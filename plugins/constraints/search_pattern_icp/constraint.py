@@ -51,7 +51,8 @@ class SearchPatternIcpParams(Params):
     point_spacing_m: float = param(0.5, unit="m", gt=0,
                                    description="odometry resampled along its path at this spacing")
     icp_iterations: int = param(30, gt=0, description="ICP iteration limit")
-    icp_tolerance: float = param(1e-4, gt=0, description="ICP stops when the transform moves less (m, rad)")
+    icp_tolerance: float = param(1e-4, unit="m", gt=0,
+                                 description="ICP stops when an iteration improves the RMSE by less")
 
 
 @dataclass
