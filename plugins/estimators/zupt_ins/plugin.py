@@ -1,0 +1,239 @@
+"""The ``zupt_ins`` estimator: foot-IMU ImuBlocks in, step odometry and poses out.
+
+A thin wrapper around :class:`~.engine.InsEngine` (the array core): it screens the
+input (frame, finite values, time order), keeps one engine per IMU device, and turns
+the engine's events and full-rate states into messages. All numerics live in the
+engine, so a recording gives the same output whatever its block sizes.
+
+Ports: ``odometry`` (:class:`Odometry` per step or rest period, INS frame), ``pose``
+(:class:`PoseEstimate` at the same instants, building frame from ``initial_position``
+and ``initial_heading``), ``state`` (full-rate :class:`PoseEstimate` at ``state_rate``
+Hz, off by default) and ``diagnostics`` (alignment, IMU mounting yaw, gaps, rejected
+input).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from firenav_framework import Estimator, ImuBlock, Odometry, PerAgent, PoseEstimate
+from firenav_framework.messages import Message
+
+from . import eskf
+from .engine import BlockResult, InsEngine
+from .params import ZuptInsParams
+from .retro import correct_positions
+from .steps import Step, StepTracker, wrap
+
+#: Sample intervals used to measure the IMU rate when ``sample_rate`` is not set.
+RATE_SAMPLES = 50
+#: Longest swing kept back for the retrospective correction of the state output [s].
+MAX_SWING = 10.0
+#: Change of the mounting yaw estimate [rad] that is reported again.
+YAW_REPORT_STEP = math.radians(5.0)
+
+
+@dataclass
+class _Device:
+    """Everything kept for one IMU device between blocks."""
+
+    device: str
+    steps: StepTracker
+    pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+    engine: InsEngine | None = None
+    last_t: float = -math.inf
+    aligned: bool = False
+    gaps: int = 0
+    zaru_rejected: int = 0
+    tail: np.ndarray = field(default_factory=lambda: np.zeros((0, eskf.N_OUT)))
+    state_slot: float = -math.inf
+    yaw_reported: float | None = None
+
+    @property
+    def n_pending(self) -> int:
+        return sum(len(p[0]) for p in self.pending)
+
+
+class ZuptIns(Estimator):
+    """ZUPT-aided strapdown INS (error-state Kalman filter) for foot-mounted IMUs."""
+
+    name = "zupt_ins"
+    inputs = (ImuBlock,)
+    outputs = {"odometry": Odometry, "pose": PoseEstimate, "state": PoseEstimate}
+    provides = frozenset({"odometry"})
+    Params = ZuptInsParams
+
+    def __init__(self, params: ZuptInsParams, ctx):
+        super().__init__(params, ctx)
+        self.state: PerAgent[dict[str, _Device]] = PerAgent(lambda agent: {})
+        h = params.initial_heading
+        self._rot = np.array([[math.cos(h), -math.sin(h), 0.0],
+                              [math.sin(h), math.cos(h), 0.0], [0.0, 0.0, 1.0]])
+        self._origin = np.asarray(params.initial_position, float)
+
+    # -- input ---------------------------------------------------------------------------
+    def handle(self, stream: str, msg: Message) -> None:
+        if not isinstance(msg, ImuBlock):
+            self.ctx.count("ignored_messages")
+            return
+        dev = self._device(msg.agent, msg.device)
+        if msg.frame != "FLU":
+            self.ctx.count("rejected_blocks_not_flu")
+            self.ctx.diagnose(msg.t, "error", "imu_not_flu",
+                              f"{msg.device}: ImuBlock in frame '{msg.frame}', expected FLU "
+                              "(put a foot_imu sensor with the right `axes` before zupt_ins)",
+                              agent=msg.agent)
+            return
+        t, acc, gyro = self._screen(dev, msg)
+        if len(t) == 0:
+            return
+        dev.last_t = float(t[-1])
+        if dev.engine is None:
+            dev.pending.append((t, acc, gyro))
+            if self.params.sample_rate is None and dev.n_pending <= RATE_SAMPLES:
+                return
+            t, acc, gyro = (np.concatenate(a) for a in zip(*dev.pending))
+            dev.pending.clear()
+            dev.engine = self._new_engine(t, msg)
+        self._publish(msg.agent, dev, dev.engine.process(t, acc, gyro))
+
+    def _screen(self, dev: _Device, msg: ImuBlock) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Finite samples whose time increases strictly (others counted and dropped)."""
+        t = np.asarray(msg.time, float)
+        acc = np.asarray(msg.accel, float)
+        gyro = np.asarray(msg.gyro, float)
+        finite = np.isfinite(t) & np.isfinite(acc).all(axis=1) & np.isfinite(gyro).all(axis=1)
+        bad = int(len(t) - finite.sum())
+        if bad:
+            self.ctx.count("rejected_samples_nonfinite", bad)
+            t, acc, gyro = t[finite], acc[finite], gyro[finite]
+        prev_max = np.maximum.accumulate(np.concatenate(([dev.last_t], t)))[:-1]
+        ordered = t > prev_max
+        back = int(len(t) - ordered.sum())
+        if back:
+            self.ctx.count("rejected_samples_time_backwards", back)
+            self.ctx.diagnose(msg.t, "warning", "imu_time_backwards",
+                              f"{msg.device}: {back} sample(s) not later than the previous "
+                              "one were dropped", agent=msg.agent)
+            t, acc, gyro = t[ordered], acc[ordered], gyro[ordered]
+        return t, acc, gyro
+
+    def _device(self, agent: str, device: str) -> _Device:
+        devices = self.state[agent]
+        dev = devices.get(device)
+        if dev is None:
+            dev = devices[device] = _Device(device, StepTracker(self.params.gait()))
+        return dev
+
+    def _new_engine(self, t: np.ndarray, msg: ImuBlock) -> InsEngine:
+        rate = self.params.sample_rate
+        if rate is None:
+            dt = float(np.median(np.diff(t[:RATE_SAMPLES + 1])))
+            rate = 1.0 / dt
+            self.ctx.diagnose(msg.t, "info", "imu_rate", f"{msg.device}: IMU rate "
+                              f"{rate:.1f} Hz (median of the first {RATE_SAMPLES} intervals)",
+                              agent=msg.agent)
+        return InsEngine(self.params.detector_config(rate), self.params.filter_config(rate))
+
+    # -- output --------------------------------------------------------------------------
+    def finish(self) -> None:
+        for agent, devices in self.state.items():
+            for dev in devices.values():
+                if dev.engine is None and dev.pending:
+                    t, acc, gyro = (np.concatenate(a) for a in zip(*dev.pending))
+                    dev.pending.clear()
+                    dummy = ImuBlock.from_arrays(t, acc, gyro, agent=agent, device=dev.device)
+                    dev.engine = self._new_engine(t, dummy) if len(t) > 1 else None
+                    if dev.engine is not None:
+                        self._publish(agent, dev, dev.engine.process(t, acc, gyro))
+                if dev.engine is not None:
+                    self._publish(agent, dev, dev.engine.finish(), final=True)
+
+    def reset(self, agent: str) -> None:
+        self.state.reset(agent)
+
+    def _publish(self, agent: str, dev: _Device, res: BlockResult, final: bool = False) -> None:
+        eng = dev.engine
+        assert eng is not None
+        if not dev.aligned and eng.aligned:
+            dev.aligned = True
+            self._report_alignment(agent, dev, res)
+        if eng.gaps > dev.gaps:
+            self.ctx.count("gaps", eng.gaps - dev.gaps)
+            t = float(res.states[-1, eskf.O_T]) if len(res.states) else dev.last_t
+            self.ctx.diagnose(t, "warning", "imu_gap", f"{dev.device}: {eng.gaps - dev.gaps} "
+                              f"sample interval(s) longer than {self.params.max_gap} s were "
+                              "integrated as that long", agent=agent)
+            dev.gaps = eng.gaps
+        if eng.zaru_rejected > dev.zaru_rejected:
+            self.ctx.count("zaru_rejected", eng.zaru_rejected - dev.zaru_rejected)
+            dev.zaru_rejected = eng.zaru_rejected
+        for ev in res.events:
+            step = dev.steps.step(ev)
+            self._publish_step(agent, dev, step)
+        if self.params.state_rate > 0:
+            self._publish_states(agent, dev, res, final)
+
+    def _report_alignment(self, agent: str, dev: _Device, res: BlockResult) -> None:
+        aligned = np.flatnonzero(res.states[:, eskf.O_ALIGNED] > 0)
+        t = float(res.states[aligned[0], eskf.O_T]) if len(aligned) else dev.last_t
+        q = res.states[aligned[0], eskf.O_Q:eskf.O_Q + 4] if len(aligned) else dev.engine.nominal[6:10]
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, 1 - 2 * (q[1] ** 2 + q[2] ** 2)))))
+        self.ctx.diagnose(t, "info", "ins_aligned", f"{dev.device}: aligned from gravity "
+                          f"(foot tilt {tilt:.0f} deg); navigation started", agent=agent)
+
+    def _to_building(self, position: np.ndarray, heading: float, cov: np.ndarray
+                     ) -> tuple[np.ndarray, float, np.ndarray]:
+        T = np.eye(4)
+        T[:3, :3] = self._rot
+        return (self._origin + self._rot @ position, wrap(self.params.initial_heading + heading),
+                T @ cov @ T.T)
+
+    def _publish_step(self, agent: str, dev: _Device, step: Step) -> None:
+        self.ctx.publish("odometry", Odometry(
+            t=step.t, agent=agent, device=dev.device, t_start=step.t_start, delta=step.delta,
+            dheading=step.dheading, cov=step.cov, position=step.position,
+            heading=step.heading, motion=step.motion))
+        pos, heading, cov = self._to_building(step.position, step.heading, step.cov_abs)
+        self.ctx.publish("pose", PoseEstimate(t=step.t, agent=agent, device=dev.device,
+                                              position=pos, heading=heading, cov=cov))
+        yaw = dev.steps.mount_yaw
+        if yaw is not None and (dev.yaw_reported is None
+                                or abs(wrap(yaw - dev.yaw_reported)) > YAW_REPORT_STEP):
+            dev.yaw_reported = yaw
+            self.ctx.diagnose(step.t, "info", "imu_mount_yaw",
+                              f"{dev.device}: walking direction is {math.degrees(yaw):+.1f} deg "
+                              f"from the IMU x axis (from {dev.steps.mount_yaw_steps} steps)",
+                              agent=agent)
+
+    def _publish_states(self, agent: str, dev: _Device, res: BlockResult, final: bool) -> None:
+        rows = np.concatenate((dev.tail, res.states)) if len(dev.tail) else res.states
+        if self.params.retrospective_correction and len(rows):
+            rows = rows.copy()
+            rows[:, eskf.O_POS:eskf.O_POS + 3] = correct_positions(
+                rows[:, eskf.O_T], rows[:, eskf.O_POS:eskf.O_POS + 3], res.events)
+            zv = np.flatnonzero(rows[:, eskf.O_ZV] > 0)
+            done = len(rows) if final else (zv[-1] + 1 if len(zv) else 0)
+            done = max(done, int(np.searchsorted(rows[:, eskf.O_T], rows[-1, eskf.O_T] - MAX_SWING)))
+        else:
+            done = len(rows)
+        out, dev.tail = rows[:done], rows[done:]
+        out = out[out[:, eskf.O_ALIGNED] > 0]
+        if not len(out):
+            return
+        slots = np.floor(out[:, eskf.O_T] * self.params.state_rate)
+        first = np.flatnonzero(np.diff(np.concatenate(([dev.state_slot], slots))) > 0)
+        dev.state_slot = float(slots[-1])
+        iu = np.triu_indices(4)
+        for row in out[first]:
+            cov = np.zeros((4, 4))
+            cov[iu] = row[eskf.O_COV:eskf.O_COV + 10]
+            cov = cov + cov.T - np.diag(np.diag(cov))
+            pos, heading, cov = self._to_building(row[eskf.O_POS:eskf.O_POS + 3],
+                                                  float(row[eskf.O_YAW]), cov)
+            self.ctx.publish("state", PoseEstimate(t=float(row[eskf.O_T]), agent=agent,
+                                                   device=dev.device, position=pos,
+                                                   heading=heading, cov=cov))
+

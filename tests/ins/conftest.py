@@ -1,0 +1,37 @@
+"""Fixtures of the INS tests: parameters, engines and a few real recordings."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams
+
+#: device (z-down) -> FLU axes of the real datasets' MicroStrain
+FLU = np.array([1.0, -1.0, -1.0])
+
+
+def run_engine(t, acc, gyro, params: ZuptInsParams | None = None, rate: float = 200.0,
+               blocks: list[int] | None = None) -> BlockResult:
+    """Whole recording through a fresh engine (optionally cut at the given indices)."""
+    params = params or ZuptInsParams()
+    eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
+    cuts = [0, *(blocks or []), len(t)]
+    parts = [eng.process(t[a:b], acc[a:b], gyro[a:b]) for a, b in zip(cuts[:-1], cuts[1:])]
+    parts.append(eng.finish())
+    return BlockResult.concat(parts)
+
+
+@pytest.fixture(scope="session")
+def vicon_walk(shared_data: Path):
+    """A normal-walking PyShoe VICON trial (arrays, FLU)."""
+    from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
+    return load_vicon_trial(shared_data / "pyshoe-vicon" / "2017-11-22-11-22-03.mat")
+
+
+@pytest.fixture(scope="session")
+def vicon_run(shared_data: Path):
+    """A running PyShoe VICON trial (stance statistic 100x higher than walking)."""
+    from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
+    return load_vicon_trial(shared_data / "pyshoe-vicon" / "2017-11-27-11-12-44.mat")

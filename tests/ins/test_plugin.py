@@ -1,0 +1,154 @@
+"""The zupt_ins plugin: ports, frames, and bad input that must not corrupt the state."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from firenav_framework import ImuBlock, Odometry, PoseEstimate
+from firenav_framework.testing import check_plugin, make_component, run_component
+from firenav_plugins.estimators.zupt_ins import ZuptIns, ZuptInsParams
+
+from .synthetic import Stride, add_noise, walk
+
+WALK = add_noise(walk([Stride((0.7, 0.0, 0.0)), Stride((0.7, 0.2, 0.0), turn=0.3),
+                       Stride((0.6, 0.3, 0.0)), Stride((0.5, 0.4, 0.0), turn=0.2)]),
+                 np.random.default_rng(4))
+
+
+def blocks(rec=WALK, size=40, agent="ff1", device="ff1/imu"):
+    return [("imu", ImuBlock.from_arrays(rec.t[i:i + size], rec.accel[i:i + size],
+                                         rec.gyro[i:i + size], agent=agent, device=device))
+            for i in range(0, len(rec.t), size)]
+
+
+def test_conforms_and_publishes_steps():
+    rec = check_plugin(ZuptIns, {"state_rate": 10.0}, sample_input=blocks())
+    odo = rec.on("odometry")
+    steps = [m for m in odo if m.motion == "walk"]
+    assert len(steps) == 4
+    assert all(isinstance(m, Odometry) and m.agent == "ff1" and m.device == "ff1/imu" for m in odo)
+    np.testing.assert_allclose(steps[0].delta, [0.7, 0.0, 0.0], atol=0.02)
+    assert abs(steps[1].dheading - 0.3) < 0.01
+    poses = rec.on("pose")
+    assert len(poses) == len(odo) and all(isinstance(p, PoseEstimate) for p in poses)
+    states = rec.on("state")
+    assert 10 * (WALK.t[-1] - 0.5) < len(states) <= 10 * WALK.t[-1] + 1
+    assert {d.code for d in rec.on("diagnostics")} >= {"imu_rate", "ins_aligned"}
+
+
+def test_building_frame_from_initial_pose():
+    h = math.radians(90)
+    rec = run_component(ZuptIns, {"initial_position": (10.0, 5.0, 3.0), "initial_heading": h},
+                        blocks())
+    ins = rec.on("odometry")[-1]
+    pose = rec.on("pose")[-1]
+    expected = np.array([10.0 - ins.position[1], 5.0 + ins.position[0], 3.0 + ins.position[2]])
+    np.testing.assert_allclose(pose.position, expected, atol=1e-12)
+    assert abs(pose.heading - (ins.heading + h)) < 1e-12
+    # the covariance turns with the frame: x variance becomes y variance
+    odo_cov = np.diag([1.0, 2.0, 3.0, 4.0])
+    _, _, cov = make_component(ZuptIns, {"initial_heading": h})[0]._to_building(
+        np.zeros(3), 0.0, odo_cov)
+    np.testing.assert_allclose(np.diag(cov), [2.0, 1.0, 3.0, 4.0], atol=1e-12)
+
+
+def _poisoned(bad: ImuBlock, at: int = 30):
+    good = blocks()
+    return good[:at] + [("imu", bad)] + good[at:]
+
+
+def _same_output(a, b):
+    for port in ("odometry", "pose"):
+        assert [m.digest() for m in a.on(port)] == [m.digest() for m in b.on(port)], port
+
+
+def test_nan_block_is_counted_and_changes_nothing():
+    clean = run_component(ZuptIns, {}, blocks())
+    t = np.full(5, np.nan)
+    nan_block = ImuBlock(t=1.0, time=t, accel=np.zeros((5, 3)), gyro=np.zeros((5, 3)),
+                         agent="ff1", device="ff1/imu")
+    comp, rec, stats = make_component(ZuptIns, {})
+    for stream, msg in _poisoned(nan_block):
+        comp.handle(stream, msg)
+    comp.finish()
+    _same_output(clean, rec)
+    assert stats.counts["under_test"]["rejected_samples_nonfinite"] == 5
+
+
+def test_partly_nan_samples_are_dropped_not_the_block():
+    msgs = blocks()
+    stream, blk = msgs[20]
+    acc = blk.accel.copy()
+    acc[3] = np.nan
+    msgs[20] = (stream, ImuBlock.from_arrays(blk.time, acc, blk.gyro, agent="ff1",
+                                             device="ff1/imu"))
+    comp, rec, stats = make_component(ZuptIns, {})
+    for s, m in msgs:
+        comp.handle(s, m)
+    comp.finish()
+    assert stats.counts["under_test"]["rejected_samples_nonfinite"] == 1
+    assert len([m for m in rec.on("odometry") if m.motion == "walk"]) == 4
+
+
+def test_time_going_backwards_is_rejected():
+    clean = run_component(ZuptIns, {}, blocks())
+    _, old = blocks()[10]   # a block from the past arrives again, late
+    comp, rec, stats = make_component(ZuptIns, {})
+    for stream, msg in _poisoned(old):
+        comp.handle(stream, msg)
+    comp.finish()
+    _same_output(clean, rec)
+    assert stats.counts["under_test"]["rejected_samples_time_backwards"] == len(old)
+    assert any(d.code == "imu_time_backwards" for d in rec.on("diagnostics"))
+
+
+def test_raw_device_frame_is_refused():
+    _, blk = blocks()[0]
+    raw = ImuBlock.from_arrays(blk.time, blk.accel, blk.gyro, agent="ff1", device="ff1/imu",
+                               frame="device")
+    comp, rec, stats = make_component(ZuptIns, {})
+    comp.handle("imu", raw)
+    assert stats.counts["under_test"]["rejected_blocks_not_flu"] == 1
+    assert rec.on("diagnostics")[0].code == "imu_not_flu"
+
+
+def test_gap_is_counted_and_bounded():
+    msgs = blocks()
+    shifted = [(s, m.shifted(5.0)) if m.t > WALK.t[400] else (s, m) for s, m in msgs]
+    comp, rec, stats = make_component(ZuptIns, {})
+    for s, m in shifted:
+        comp.handle(s, m)
+    comp.finish()
+    assert stats.counts["under_test"]["gaps"] == 1
+    assert any(d.code == "imu_gap" for d in rec.on("diagnostics"))
+    # the gap falls in a stance: integrated as 0.1 s at rest, the track is unharmed
+    last = rec.on("odometry")[-1]
+    np.testing.assert_allclose(last.position, WALK.footprints[-1], atol=0.05)
+
+
+def test_two_feet_of_one_agent_get_their_own_filters():
+    left = blocks(device="ff1/left")
+    right = blocks(device="ff1/right")
+    rec = run_component(ZuptIns, {}, [m for pair in zip(left, right) for m in pair])
+    by_dev = {d: [m for m in rec.on("odometry") if m.device == d and m.motion == "walk"]
+              for d in ("ff1/left", "ff1/right")}
+    assert len(by_dev["ff1/left"]) == len(by_dev["ff1/right"]) == 4
+    np.testing.assert_allclose(by_dev["ff1/left"][-1].position, by_dev["ff1/right"][-1].position)
+
+
+def test_reset_forgets_the_agent():
+    comp, rec, _ = make_component(ZuptIns, {})
+    for s, m in blocks()[:60]:
+        comp.handle(s, m)
+    comp.reset("ff1")
+    assert "ff1" not in comp.state
+
+
+@pytest.mark.parametrize("bad", [{"zaru": True}, {"zv_low": 9.0}, {"detector": "lstm"},
+                                 {"gravity": 1.0}])
+def test_inconsistent_parameters_are_refused(bad):
+    with pytest.raises(ValidationError):
+        ZuptInsParams(**bad)
