@@ -1,8 +1,24 @@
-"""Track error against ground truth.
+"""Track error against ground truth: the numbers every benchmark and `evaluate` reports.
 
-Errors are computed at the estimate's own times, against the ground truth
-interpolated linearly to those times (truth is sampled much faster than estimates).
-Only estimates inside the truth's time span count.
+Dense truth (the simulator's, tens of Hz): errors are computed at the estimate's own
+times, against the truth interpolated linearly to those times; only estimates inside
+the truth's time span count. Sparse truth (surveyed checkpoints, one per stride or
+per stop) is handled by :mod:`.checkpoints`, which interpolates the *estimate* to the
+checkpoint times instead.
+
+Definitions (all distances horizontal unless said otherwise, metres, seconds):
+
+* ``rmse_m``, ``mean_m``, ``median_m``, ``p90_m``, ``p95_m``, ``max_m``: of the
+  horizontal error samples;
+* ``distance_m``: length of the TRUE path over the evaluated span;
+* ``mean_pct_distance`` / ``max_pct_distance``: mean / max error as a percentage of
+  that distance (the breadcrumb paper's "error factor", Sec. V-A: 5.6 m average and
+  10.9 m maximum over 400 m = 1.4 % and 2.7 %);
+* ``vertical_rmse_m``: RMS of estimate z - true z (None if the estimate has no z);
+* ``floor_accuracy``: fraction of estimates whose floor index equals the true floor
+  (None if the estimator reports no floors);
+* ``converge_s``: time from the first estimate until the error drops below
+  ``bound_m`` for good (None if it never stays below).
 """
 from __future__ import annotations
 
@@ -12,6 +28,10 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..tracks import Track
+
+#: Default error bound for the convergence time [m] (search-pattern paper, Sec. V-C:
+#: the filter "stabilizes at a RMSE of about one meter"; twice that counts as settled).
+CONVERGE_BOUND_M = 2.0
 
 
 def horizontal_errors(track: Track, truth: Track) -> tuple[np.ndarray, np.ndarray]:
@@ -51,3 +71,133 @@ def error_stats(errors: np.ndarray) -> ErrorStats:
                       mean_m=float(e.mean()), median_m=float(np.median(e)),
                       p90_m=float(np.percentile(e, 90)), p95_m=float(np.percentile(e, 95)),
                       max_m=float(e.max()))
+
+
+def path_length(xy: np.ndarray) -> float:
+    """Length of a polyline (N, 2) [m]."""
+    return float(np.sum(np.hypot(*np.diff(xy, axis=0).T))) if len(xy) > 1 else 0.0
+
+
+def convergence_time(t: np.ndarray, errors: np.ndarray, bound_m: float) -> float | None:
+    """Seconds from ``t[0]`` until ``errors`` stay at or below ``bound_m`` to the end."""
+    if len(t) == 0:
+        return None
+    above = np.flatnonzero(~(errors <= bound_m))
+    if len(above) == 0:
+        return 0.0
+    last = above[-1]
+    if last == len(t) - 1:
+        return None
+    return float(t[last + 1] - t[0])
+
+
+@dataclass
+class TrackErrors:
+    """Error series of one estimated track against its truth (for metrics and plots)."""
+
+    agent: str
+    t: np.ndarray             # (N,) estimate times inside the truth span
+    horizontal: np.ndarray    # (N,) [m]
+    vertical: np.ndarray      # (N,) estimate z - true z [m] (NaN: unknown)
+    floor_ok: np.ndarray      # (N,) 1.0 right floor, 0.0 wrong, NaN unknown
+    distance_m: float         # true path length over the span
+
+
+def track_errors(track: Track, truth: Track) -> TrackErrors:
+    """Errors of ``track`` against dense ``truth`` at the estimate's times."""
+    t, e = horizontal_errors(track, truth)
+    n = len(t)
+    if n == 0:
+        return TrackErrors(track.agent, t, e, np.empty(0), np.empty(0), 0.0)
+    inside = (track.t >= truth.t[0]) & (track.t <= truth.t[-1])
+    z_true = np.interp(t, truth.t, truth.position[:, 2])
+    vertical = track.position[inside, 2] - z_true
+    floor_est = track.floor[inside]
+    idx = np.clip(np.searchsorted(truth.t, t, side="right") - 1, 0, len(truth) - 1)
+    # nearest truth sample's floor (floors are integers: no interpolation)
+    nxt = np.clip(idx + 1, 0, len(truth) - 1)
+    near = np.where(np.abs(truth.t[nxt] - t) < np.abs(truth.t[idx] - t), nxt, idx)
+    floor_true = truth.floor[near]
+    floor_ok = np.where((floor_est >= 0) & (floor_true >= 0),
+                        (floor_est == floor_true).astype(float), np.nan)
+    span = (truth.t >= t[0]) & (truth.t <= t[-1])
+    dist = path_length(truth.position[span, :2])
+    return TrackErrors(track.agent, t, e, vertical, floor_ok, dist)
+
+
+def _finite_or_none(v: float) -> float | None:
+    return None if v is None or not math.isfinite(v) else float(v)
+
+
+@dataclass
+class TrackMetrics:
+    """The reported figures of one track (or a pool of tracks); None: does not apply."""
+
+    n: int
+    rmse_m: float | None
+    mean_m: float | None
+    median_m: float | None
+    p90_m: float | None
+    p95_m: float | None
+    max_m: float | None
+    mean_pct_distance: float | None
+    max_pct_distance: float | None
+    distance_m: float | None
+    vertical_rmse_m: float | None
+    floor_accuracy: float | None
+    converge_s: float | None
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+KEYS = ("rmse_m", "mean_m", "median_m", "p90_m", "p95_m", "max_m", "mean_pct_distance",
+        "max_pct_distance", "distance_m", "vertical_rmse_m", "floor_accuracy", "converge_s")
+
+
+def metrics_of(err: TrackErrors, bound_m: float = CONVERGE_BOUND_M) -> TrackMetrics:
+    """All reported figures of one track's errors."""
+    s = error_stats(err.horizontal)
+    d = err.distance_m if err.distance_m > 0 else math.nan
+    vert = err.vertical[np.isfinite(err.vertical)]
+    fl = err.floor_ok[np.isfinite(err.floor_ok)]
+    return TrackMetrics(
+        n=s.n, rmse_m=_finite_or_none(s.rmse_m), mean_m=_finite_or_none(s.mean_m),
+        median_m=_finite_or_none(s.median_m), p90_m=_finite_or_none(s.p90_m),
+        p95_m=_finite_or_none(s.p95_m), max_m=_finite_or_none(s.max_m),
+        mean_pct_distance=_finite_or_none(100.0 * s.mean_m / d),
+        max_pct_distance=_finite_or_none(100.0 * s.max_m / d),
+        distance_m=_finite_or_none(d),
+        vertical_rmse_m=_finite_or_none(float(np.sqrt(np.mean(vert ** 2)))) if vert.size else None,
+        floor_accuracy=float(fl.mean()) if fl.size else None,
+        converge_s=convergence_time(err.t, err.horizontal, bound_m))
+
+
+def pooled_metrics(errs: list[TrackErrors], bound_m: float = CONVERGE_BOUND_M) -> TrackMetrics:
+    """Figures over several tracks (agents x runs).
+
+    Error statistics pool every sample; ``distance_m`` is the mean true distance per
+    track; the percentages are means over tracks of each track's own percentage (as the
+    breadcrumb paper averages its eight traces); ``converge_s`` is the median over
+    tracks, a track that never converges counting as infinitely late (None when at
+    least half never converge).
+    """
+    if not errs:
+        return TrackMetrics(0, *([None] * 12))
+    per = [metrics_of(e, bound_m) for e in errs]
+    pooled = metrics_of(TrackErrors("", np.concatenate([e.t for e in errs]),
+                                    np.concatenate([e.horizontal for e in errs]),
+                                    np.concatenate([e.vertical for e in errs]),
+                                    np.concatenate([e.floor_ok for e in errs]), 0.0), bound_m)
+
+    def mean_of(key: str) -> float | None:
+        vals = [getattr(m, key) for m in per if getattr(m, key) is not None]
+        return float(np.mean(vals)) if vals else None
+
+    conv = np.array([math.inf if m.converge_s is None else m.converge_s for m in per])
+    med = float(np.median(conv)) if len(conv) else math.inf
+    pooled.mean_pct_distance = mean_of("mean_pct_distance")
+    pooled.max_pct_distance = mean_of("max_pct_distance")
+    pooled.distance_m = mean_of("distance_m")
+    pooled.converge_s = med if math.isfinite(med) else None
+    return pooled

@@ -1,0 +1,192 @@
+"""A Markdown evaluation page with plots (matplotlib, headless Agg).
+
+``write_report(evaluation, out_dir)`` writes ``report.md`` with the figures table
+(pipeline and baseline side by side, per agent and overall) and three kinds of PNG:
+
+* ``tracks_seed<k>_floor<i>.png``: truth, estimate and baseline of the first runs over
+  the floor plan, with 2-sigma position ellipses along the estimate;
+* ``error_time.png``: horizontal error over time, every run and agent;
+* ``error_cdf.png``: cumulative distribution of the pooled horizontal errors.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..tracks import Track
+from .metrics import KEYS
+from .runs import Evaluation, RunEvaluation
+
+_LABELS = {
+    "rmse_m": "RMSE [m]", "mean_m": "mean [m]", "median_m": "median [m]", "p90_m": "90 % [m]",
+    "p95_m": "95 % [m]", "max_m": "max [m]", "mean_pct_distance": "mean / distance [%]",
+    "max_pct_distance": "max / distance [%]", "distance_m": "true distance [m]",
+    "vertical_rmse_m": "vertical RMSE [m]", "floor_accuracy": "floor accuracy",
+    "converge_s": "converged after [s]",
+}
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        return f"{v:.3f}" if abs(v) < 10 else f"{v:.1f}"
+    return str(v)
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _ellipse(ax, xy: np.ndarray, cov: np.ndarray, color: str) -> None:
+    from matplotlib.patches import Ellipse
+    c = cov[:2, :2]
+    if not np.all(np.isfinite(c)):
+        return
+    w, v = np.linalg.eigh(c)
+    w = np.maximum(w, 0.0)
+    ang = np.degrees(np.arctan2(v[1, 1], v[0, 1]))
+    ax.add_patch(Ellipse(xy, 4 * np.sqrt(w[1]), 4 * np.sqrt(w[0]), angle=ang, fill=False,
+                         color=color, lw=0.6, alpha=0.7))
+
+
+def _track_plot(run: RunEvaluation, base: RunEvaluation | None, out: Path, label: str,
+                base_label: str, every_s: float = 15.0) -> list[Path]:
+    plt = _plt()
+    building = run.building
+    floors = sorted({int(f) for tr in run.truth.values() for f in np.unique(tr.floor) if f >= 0}
+                    or {0})
+    paths = []
+    for fl in floors:
+        fig, ax = plt.subplots(figsize=(9, 6.5))
+        if building is not None:
+            from ..building.plot import draw_floor
+            draw_floor(ax, building, fl)
+        for agent, truth in run.truth.items():
+            m = truth.floor == fl if (truth.floor >= 0).any() else np.ones(len(truth), bool)
+            ax.plot(truth.position[m, 0], truth.position[m, 1], "k--", lw=0.9, alpha=0.7,
+                    label=f"truth {agent}")
+        for tracks, color, name in ((run.tracks, "#d62728", label),
+                                    (base.tracks if base else {}, "#1f77b4", base_label)):
+            for agent, tr in tracks.items():
+                if len(tr) == 0:
+                    continue
+                m = _on_floor(tr, run.truth.get(agent), fl)
+                ax.plot(tr.position[m, 0], tr.position[m, 1], "-", color=color, lw=1.1,
+                        label=f"{name} {agent}")
+                next_t = -np.inf
+                for t, p, c in zip(tr.t[m], tr.position[m], tr.cov[m]):
+                    if t >= next_t:
+                        _ellipse(ax, p[:2], c, color)
+                        next_t = t + every_s
+        ax.set_aspect("equal")
+        ax.set_xlabel("x east [m]")
+        ax.set_ylabel("y north [m]")
+        ax.set_title(f"seed {run.seed}, floor {fl} (ellipses: 2 sigma every {every_s:g} s)")
+        ax.legend(fontsize=6, loc="best")
+        path = out / f"tracks_seed{run.seed}_floor{fl}.png"
+        fig.savefig(path, dpi=110, bbox_inches="tight")
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def _on_floor(tr: Track, truth: Track | None, fl: int) -> np.ndarray:
+    if (tr.floor >= 0).any():
+        return tr.floor == fl
+    if truth is not None and (truth.floor >= 0).any():
+        idx = np.clip(np.searchsorted(truth.t, tr.t), 0, len(truth) - 1)
+        return truth.floor[idx] == fl
+    return np.ones(len(tr), bool)
+
+
+def _error_plots(ev: Evaluation, out: Path) -> tuple[Path, Path]:
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(9, 4))
+    series = [(ev, "#d62728", "pipeline")]
+    if ev.baseline is not None:
+        series.append((ev.baseline, "#1f77b4", "baseline"))
+    for e, color, name in series:
+        first = True
+        for run in e.runs:
+            for agent, err in run.errors.items():
+                ax.plot(err.t, err.horizontal, "-", color=color, lw=0.7, alpha=0.5,
+                        label=name if first else None)
+                first = False
+    ax.axhline(ev.bound_m, color="k", lw=0.6, ls=":", label=f"convergence bound {ev.bound_m:g} m")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("horizontal error [m]")
+    ax.legend(fontsize=7)
+    p_time = out / "error_time.png"
+    fig.savefig(p_time, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for e, color, name in series:
+        errs = np.sort(np.concatenate([err.horizontal for r in e.runs for err in r.errors.values()]
+                                      or [np.empty(0)]))
+        if errs.size:
+            ax.plot(errs, np.arange(1, errs.size + 1) / errs.size, color=color, label=name)
+    ax.set_xlabel("horizontal error [m]")
+    ax.set_ylabel("fraction of estimates")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    p_cdf = out / "error_cdf.png"
+    fig.savefig(p_cdf, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return p_time, p_cdf
+
+
+def write_report(ev: Evaluation, out_dir: str | Path, *, track_runs: int = 2) -> Path:
+    """Write ``report.md`` and its plots under ``out_dir``; returns the Markdown path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    base = ev.baseline
+    lines = [f"# Evaluation: {Path(ev.pipeline).name}", ""]
+    lines += [f"- scenario: `{ev.scenario}`" if ev.scenario else "- recorded data",
+              f"- seeds: {', '.join(str(s) for s in ev.seeds)} ({len(ev.runs)} runs)",
+              f"- evaluated stream: `{ev.stream}`; truth: {ev.truth_mode}; alignment: {ev.align}",
+              f"- convergence: error stays below {ev.bound_m:g} m"]
+    if base is not None:
+        lines.append(f"- baseline: `{Path(base.pipeline).name}` stream `{base.stream}` "
+                     "on the same seeds")
+    lines += ["", "## Overall", "", "| figure | pipeline |" + (" baseline |" if base else ""),
+              "|---|---|" + ("---|" if base else "")]
+    for k in KEYS:
+        row = f"| {_LABELS[k]} | {_fmt(getattr(ev.overall, k))} |"
+        if base is not None:
+            row += f" {_fmt(getattr(base.overall, k))} |"
+        lines.append(row)
+    lines += ["", "## Per agent (all seeds pooled)", ""]
+    head = ["agent", "RMSE [m]", "mean [m]", "p95 [m]", "max [m]", "mean/dist [%]",
+            "vertical RMSE [m]", "floor acc.", "converged [s]"]
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, e in (("", ev), (" (baseline)", base)):
+        if e is None:
+            continue
+        for agent, m in e.per_agent.items():
+            lines.append("| " + " | ".join([agent + name] + [_fmt(v) for v in (
+                m.rmse_m, m.mean_m, m.p95_m, m.max_m, m.mean_pct_distance, m.vertical_rmse_m,
+                m.floor_accuracy, m.converge_s)]) + " |")
+    p_time, p_cdf = _error_plots(ev, out)
+    lines += ["", "## Error over time", "", f"![error over time]({p_time.name})", "",
+              "## Error distribution", "", f"![error CDF]({p_cdf.name})", "", "## Tracks", ""]
+    for i, run in enumerate(ev.runs[:track_runs]):
+        brun = base.runs[i] if base is not None and i < len(base.runs) else None
+        for p in _track_plot(run, brun, out, "pipeline", "baseline"):
+            lines += [f"![tracks]({p.name})", ""]
+    missing = sorted({a for r in ev.runs for a in r.missing_truth})
+    outside = sum(r.outside_checkpoints for r in ev.runs)
+    if missing or outside:
+        lines += ["## Notes", ""]
+        if missing:
+            lines.append(f"- no ground truth for agents: {', '.join(missing)} (not scored)")
+        if outside:
+            lines.append(f"- {outside} checkpoints fell outside the estimate's time span "
+                         "(not scored)")
+    path = out / "report.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path

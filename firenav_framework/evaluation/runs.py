@@ -1,0 +1,243 @@
+"""Running a pipeline against ground truth over several seeds (and a baseline alike).
+
+:func:`evaluate` loads the pipeline once per seed with ``--set`` overrides of its
+``simulator`` source (``seed``, and ``scenario`` when one is given), runs it, picks the
+evaluated pose stream (by default the ``pose`` output of the last estimator) and
+measures every agent's track against the truth the run carried. A pipeline without a
+simulator (a recording with surveyed checkpoints) is run once.
+
+Truth modes: ``dense`` (truth interpolated to the estimate times), ``sparse`` (the
+truth stream is checkpoints: the estimate is interpolated to them, see
+:mod:`.checkpoints`), ``checkpoints`` (the scenario's marked stops, like the ORCA
+paper's check points), ``auto`` (sparse when the truth is, else dense).
+"""
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from ..pipeline import PipelineSpec, load_pipeline
+from ..tracks import Track
+from .checkpoints import Checkpoints, checkpoint_errors, is_sparse, parse_align
+from .metrics import (CONVERGE_BOUND_M, KEYS, TrackErrors, TrackMetrics, metrics_of,
+                      pooled_metrics, track_errors)
+
+TRUTH_MODES = ("auto", "dense", "sparse", "checkpoints")
+
+
+class EvaluationError(ValueError):
+    """The evaluation cannot be done as asked (no stream, no truth, no simulator...)."""
+
+
+@dataclass
+class RunEvaluation:
+    """One run (one seed) of one pipeline, measured."""
+
+    seed: int | None
+    stream: str
+    metrics: dict[str, TrackMetrics]
+    errors: dict[str, TrackErrors]
+    tracks: dict[str, Track]
+    truth: dict[str, Track]
+    truth_mode: str
+    outside_checkpoints: int = 0
+    building: Any = None
+    wall_s: float = 0.0
+    missing_truth: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Evaluation:
+    """A pipeline over all seeds: per-run figures, pooled per agent and overall."""
+
+    pipeline: str
+    scenario: str | None
+    seeds: list[int | None]
+    stream: str
+    truth_mode: str
+    align: str
+    bound_m: float
+    runs: list[RunEvaluation]
+    overall: TrackMetrics
+    per_agent: dict[str, TrackMetrics]
+    baseline: "Evaluation | None" = None
+
+    def summary(self) -> dict:
+        """The JSON object of ``firenav evaluate --json`` (see docs/scenarios.md)."""
+        out: dict[str, Any] = {k: getattr(self.overall, k) for k in KEYS}
+        out.update({
+            "runs": len(self.runs), "pipeline": self.pipeline, "scenario": self.scenario,
+            "seeds": self.seeds, "stream": self.stream, "truth_mode": self.truth_mode,
+            "align": self.align, "converge_bound_m": self.bound_m, "samples": self.overall.n,
+            "per_agent": {a: m.as_dict() for a, m in self.per_agent.items()},
+            "per_run": [{"seed": r.seed, "wall_s": round(r.wall_s, 3),
+                         "outside_checkpoints": r.outside_checkpoints,
+                         "missing_truth": r.missing_truth,
+                         "agents": {a: m.as_dict() for a, m in r.metrics.items()}}
+                        for r in self.runs],
+        })
+        if self.baseline is not None:
+            base = self.baseline.summary()
+            base.pop("baseline", None)
+            out["baseline"] = base
+        else:
+            out["baseline"] = None
+        return out
+
+
+def _json_default(v: Any) -> Any:
+    if isinstance(v, np.generic):
+        return v.item()
+    raise TypeError(f"not JSON serialisable: {type(v).__name__}")
+
+
+def write_json(evaluation: Evaluation, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(evaluation.summary(), indent=1, default=_json_default) + "\n",
+                    encoding="utf-8")
+    return path
+
+
+def simulator_source(spec: PipelineSpec) -> str | None:
+    """Id of the pipeline's first ``simulator`` source, if any."""
+    for c in spec.components:
+        if c.kind == "source" and c.plugin.name == "simulator":
+            return c.id
+    return None
+
+
+def default_stream(spec: PipelineSpec) -> str:
+    """The ``pose`` stream of the last estimator in the pipeline."""
+    poses = [f"{c.id}.pose" for c in spec.components
+             if c.kind == "estimator" and "pose" in c.outputs]
+    if not poses:
+        raise EvaluationError(f"{spec.file}: no estimator with a 'pose' output; name the "
+                              "evaluated stream with --stream")
+    return poses[-1]
+
+
+def _scenario_value(scenario: str) -> str:
+    """A scenario given on the command line, made independent of the pipeline's folder."""
+    p = Path(scenario).expanduser()
+    return str(p.resolve()) if p.is_file() else scenario
+
+
+def evaluate(pipeline: str | Path, *, scenario: str | None = None,
+             seeds: int | list[int] = 1, stream: str | None = None,
+             overrides: list[str] = (), truth_mode: str = "auto", align: str = "none",
+             bound_m: float = CONVERGE_BOUND_M, output_dir: Path | None = None,
+             progress: Callable[[str], None] | None = None) -> Evaluation:
+    """Run ``pipeline`` for each seed and measure it (see the module docstring)."""
+    from ..runner import run_pipeline
+    if truth_mode not in TRUTH_MODES:
+        raise EvaluationError(f"truth mode '{truth_mode}' must be one of {', '.join(TRUTH_MODES)}")
+    parse_align(align)
+    base_spec = load_pipeline(pipeline, list(overrides))
+    sim_id = simulator_source(base_spec)
+    seed_list: list[int | None] = list(range(seeds)) if isinstance(seeds, int) else list(seeds)
+    if sim_id is None:
+        if scenario is not None:
+            raise EvaluationError(f"{pipeline}: --scenario needs a pipeline with a "
+                                  "'simulator' source")
+        if len(seed_list) > 1:
+            raise EvaluationError(f"{pipeline}: several seeds need a 'simulator' source; "
+                                  "a recorded run is evaluated once")
+        seed_list = [None]
+    if not seed_list:
+        raise EvaluationError("no seeds to run")
+    stream = stream or default_stream(base_spec)
+    if stream not in base_spec.streams():
+        raise EvaluationError(f"stream '{stream}' is produced by nobody in {pipeline}; "
+                              f"pose streams: {', '.join(_pose_streams(base_spec)) or 'none'}")
+    runs = []
+    for seed in seed_list:
+        over = list(overrides)
+        if sim_id is not None:
+            over.append(f"sources.{sim_id}.seed={seed}")
+            if scenario is not None:
+                over.append(f"sources.{sim_id}.scenario={json.dumps(_scenario_value(scenario))}")
+        spec = load_pipeline(pipeline, over)
+        if progress:
+            progress(f"{spec.name}: seed {seed}" if seed is not None else f"{spec.name}")
+        t0 = time.monotonic()
+        with tempfile.TemporaryDirectory(prefix="firenav-eval-") as tmp:
+            out = (output_dir / f"{spec.name}-seed{seed}") if output_dir else Path(tmp)
+            out.mkdir(parents=True, exist_ok=True)
+            result = run_pipeline(spec, output_dir=out)
+        runs.append(_measure(result, seed, stream, truth_mode, align, bound_m, sim_id,
+                             time.monotonic() - t0))
+    errs = [e for r in runs for e in r.errors.values()]
+    agents = sorted({a for r in runs for a in r.errors})
+    per_agent = {a: pooled_metrics([r.errors[a] for r in runs if a in r.errors], bound_m)
+                 for a in agents}
+    scen = scenario
+    if scen is None and sim_id is not None:
+        scen = str(base_spec.by_id(sim_id).params.scenario)
+    return Evaluation(pipeline=str(pipeline), scenario=scen, seeds=seed_list, stream=stream,
+                      truth_mode=runs[0].truth_mode, align=align, bound_m=bound_m, runs=runs,
+                      overall=pooled_metrics(errs, bound_m), per_agent=per_agent)
+
+
+def _pose_streams(spec: PipelineSpec) -> list[str]:
+    from ..messages import PoseEstimate
+    return sorted(s for s, t in spec.streams().items() if issubclass(t, PoseEstimate))
+
+
+def _measure(result, seed, stream: str, truth_mode: str, align: str, bound_m: float,
+             sim_id: str | None, wall_s: float) -> RunEvaluation:
+    tracks = result.tracks.get(stream, {})
+    truth = result.truth
+    sim = result.components.get(sim_id) if sim_id else None
+    errors: dict[str, TrackErrors] = {}
+    missing: list[str] = []
+    outside = 0
+    mode_used = truth_mode
+    for agent, tr in tracks.items():
+        tt = truth.get(agent)
+        if tt is None or len(tt) == 0:
+            missing.append(agent)
+            continue
+        mode = truth_mode
+        if mode == "auto":
+            mode = "sparse" if is_sparse(tt) else "dense"
+        mode_used = mode
+        if mode == "dense":
+            errors[agent] = track_errors(tr, tt)
+            if align != "none":
+                raise EvaluationError("--align applies to checkpoint evaluation (sparse or "
+                                      "checkpoints truth modes)")
+        elif mode == "sparse":
+            errors[agent], n_out = checkpoint_errors(tr, Checkpoints.from_track(tt), align=align)
+            outside += n_out
+        else:
+            sim_result = getattr(sim, "result", None)
+            if sim_result is None or agent not in sim_result.truth:
+                raise EvaluationError("truth mode 'checkpoints' needs a simulator source "
+                                      "whose scenario marks checkpoints")
+            marks = sim_result.truth[agent].checkpoints
+            if not marks:
+                missing.append(agent)
+                continue
+            cps = Checkpoints(agent, np.array([c.t for c in marks]),
+                              np.array([c.position for c in marks]),
+                              np.asarray(sim_result.building.floor_of_z(
+                                  np.array([c.position[2] for c in marks]))),
+                              [c.name for c in marks])
+            dense = sim_result.truth[agent]
+            errors[agent], n_out = checkpoint_errors(tr, cps, align=align,
+                                                     distance_m=dense.distance_m)
+            outside += n_out
+    if not tracks:
+        raise EvaluationError(f"the run produced no poses on '{stream}'")
+    metrics = {a: metrics_of(e, bound_m) for a, e in errors.items()}
+    return RunEvaluation(seed=seed, stream=stream, metrics=metrics, errors=errors,
+                         tracks=dict(tracks), truth=dict(truth), truth_mode=mode_used,
+                         outside_checkpoints=outside, building=result.building,
+                         wall_s=wall_s, missing_truth=missing)
