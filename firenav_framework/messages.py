@@ -57,6 +57,9 @@ class Message:
     device: str = ""
 
     kind: ClassVar[str] = "message"
+    #: True for data that arrive at a steady rate, where a silence means trouble (the
+    #: timeline reports gaps only for these); events such as a tag read are not.
+    periodic: ClassVar[bool] = False
 
     def shifted(self, dt: float) -> "Message":
         """The same message with every time field moved by ``dt`` seconds."""
@@ -85,6 +88,7 @@ class RawFrame(Message):
     data: bytes
     t_recv: float | None = None
     kind: ClassVar[str] = "raw_frame"
+    periodic: ClassVar[bool] = True
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -106,6 +110,7 @@ class ImuBlock(Message):
     flags: np.ndarray | None = None
     frame: str = "FLU"
     kind: ClassVar[str] = "imu_block"
+    periodic: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         n = len(self.time)
@@ -230,10 +235,12 @@ class Odometry(Message):
 class PoseEstimate(Message):
     """An estimated pose of ``agent`` with its uncertainty.
 
-    ``position`` (3,) ENU [m] in the building frame; ``heading`` [rad];
-    ``cov`` (4, 4) over (x, y, z, heading); ``floor`` the floor index (0 = ground
-    floor) or None when unknown. ``trusted`` is False when the estimator itself
-    judges the estimate unreliable (e.g. particle spread after a map error).
+    ``position`` (3,) ENU [m]; ``heading`` [rad]; ``cov`` (4, 4) over
+    (x, y, z, heading); ``floor`` the floor index (0 = ground floor) or None when
+    unknown. ``trusted`` is False when the estimator itself judges the estimate
+    unreliable (e.g. particle spread after a map error). ``frame`` is ``"building"``
+    when the pose is placed in the building; an estimator that only knows its own
+    start (an unaided INS) names its own frame, e.g. ``"odometry"``.
     """
 
     position: np.ndarray
@@ -241,6 +248,7 @@ class PoseEstimate(Message):
     cov: np.ndarray
     floor: int | None = None
     trusted: bool = True
+    frame: str = "building"
     kind: ClassVar[str] = "pose"
 
     def __post_init__(self) -> None:
@@ -278,6 +286,7 @@ class GroundTruth(Message):
     floor: int | None = None
     frame: str = "building"
     kind: ClassVar[str] = "ground_truth"
+    periodic: ClassVar[bool] = True
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)

@@ -14,10 +14,12 @@ def summary_dict(result: RunResult) -> dict:
     for stream, agents in result.tracks.items():
         for agent, tr in agents.items():
             truth = result.truth.get(agent)
-            if truth is not None and truth.frame == "building":
+            if truth is not None and truth.frame == tr.frame:
                 errors.setdefault(stream, {})[agent] = error_stats(
                     horizontal_errors(tr, truth)[1]).as_dict()
     other_frames = sorted({t.frame for t in result.truth.values() if t.frame != "building"})
+    unplaced = sorted(s for s, agents in result.tracks.items()
+                      if any(tr.frame != "building" for tr in agents.values()))
     return {
         "pipeline": result.pipeline,
         "data_s": round(result.duration_s, 3),
@@ -27,6 +29,7 @@ def summary_dict(result: RunResult) -> dict:
         "tracks": tracks,
         "track_error": errors,
         "truth_in_other_frames": other_frames,
+        "streams_not_in_building_frame": unplaced,
     }
 
 
@@ -50,6 +53,9 @@ def format_summary(result: RunResult) -> str:
         lines += ["", f"Ground truth is in the {', '.join(d['truth_in_other_frames'])} frame, "
                   "not the building frame: compare with `firenav evaluate`, which aligns "
                   "the frames first."]
+    if d["streams_not_in_building_frame"] and result.truth:
+        lines += ["", "Not compared with ground truth (in their own odometry frame): "
+                  + ", ".join(d["streams_not_in_building_frame"])]
     if d["track_error"]:
         lines += ["", "Horizontal track error against ground truth:"]
         for s, agents in d["track_error"].items():

@@ -20,8 +20,10 @@ order. The rules below are applied per *channel*: one stream of one device.
     continues where it was (one typical sample interval on); with ``drop`` its
     messages are dropped until its time passes the old time again.
 ``gap``
-    A forward step longer than ``gap`` seconds (without a clock jump) is a gap: the
-    data are kept and a ``gap`` diagnostic is issued.
+    A forward step longer than ``gap`` seconds (without a clock jump) in a channel of
+    periodic data (IMU blocks, raw frames, ground truth: ``Message.periodic``) is a
+    gap: the data are kept and a ``gap`` diagnostic is issued. Event streams (tag
+    reads, drops) are silent most of the time and are not checked.
 
 Periodic ticks: every registered period produces :class:`Tick` messages at
 multiples of the period, released before any message with a later time. The
@@ -142,7 +144,7 @@ class Timeline:
                 if msg is None:
                     return
                 dt = msg.t - ch.last_t
-            if dt > cfg.gap:
+            if dt > cfg.gap and msg.periodic:
                 self._count("gaps")
                 self._diagnose(msg, "gap", f"{stream}: no data for {dt:.2f} s "
                                f"(device {key[1] or '?'})")

@@ -72,8 +72,7 @@ class _Builder:
         self.frame = "building"
 
     def add(self, msg: Message) -> None:
-        if isinstance(msg, GroundTruth):
-            self.frame = msg.frame
+        self.frame = msg.frame
         if isinstance(msg, PoseEstimate):
             self.rows.append((msg.t, msg.position, msg.heading, msg.cov,
                               -1 if msg.floor is None else msg.floor, msg.trusted))

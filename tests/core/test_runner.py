@@ -158,3 +158,11 @@ def test_truth_in_another_frame_is_not_compared_without_alignment(tmp_path):
     d = summary_dict(res)
     assert d["track_error"] == {} and d["truth_in_other_frames"] == ["vicon"]
     assert "Ground truth is in the vicon frame" in format_summary(res)
+
+
+def test_poses_in_their_own_odometry_frame_are_not_compared_with_truth(tmp_path):
+    res = run(pipeline(", frame: odometry"), tmp_path)
+    d = summary_dict(res)
+    assert d["track_error"] == {} and d["streams_not_in_building_frame"] == ["dr.pose"]
+    assert "Not compared with ground truth (in their own odometry frame): dr.pose" \
+        in format_summary(res)

@@ -160,3 +160,13 @@ def test_output_is_deterministic():
         out += tl.release(flush=True)
         return [(s, m.t, float(getattr(m, "position", [0])[0])) for s, m in out]
     assert run() == run()
+
+
+def test_event_streams_are_not_reported_as_gaps():
+    from firenav_framework.messages import TagDetection
+    tl = Timeline(TimelineConfig(gap=2.0, reorder_window=0.0))
+    for t in [0.0, 40.0, 95.0]:  # tag reads minutes apart are normal
+        tl.push("rfid", TagDetection(t=t, agent="a", tag_id=f"tag{t}"))
+    out = drain(tl)
+    assert data(out) == [0.0, 40.0, 95.0]
+    assert not [m for _, m in out if isinstance(m, Diagnostic)]

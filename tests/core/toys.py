@@ -72,6 +72,7 @@ class Integrate(Estimator):
         fail_agent: str = param("", description="agent whose step at fail_t raises")
         fail_t: float = param(-1.0, unit="s", description="time of the failing step")
         gain: float = param(1.0, gt=0, description="scale of each increment")
+        frame: str = param("building", description="frame its poses are in")
 
     def __init__(self, params, ctx):
         super().__init__(params, ctx)
@@ -84,7 +85,7 @@ class Integrate(Estimator):
         self.pos[msg.agent] = self.pos[msg.agent] + self.params.gain * msg.delta
         self.ctx.publish("pose", PoseEstimate(t=msg.t, agent=msg.agent,
                                               position=self.pos[msg.agent], heading=0.0,
-                                              cov=np.eye(4) * 0.1))
+                                              cov=np.eye(4) * 0.1, frame=self.params.frame))
 
     def reset(self, agent: str) -> None:
         self.resets.append(agent)
