@@ -1,0 +1,464 @@
+"""The ``pdr_ekf`` estimator: foot-INS strides + RFID tags on doors -> 1 Hz building poses.
+
+The pipeline of the RFID/MEMS paper (rfid-mems-ekf):
+
+* **Odometry** (one increment per stride of the instrumented foot, from ``zupt_ins`` in
+  its own frame, or from ``dead_reckoning`` already in the building frame, possibly
+  ORCA-corrected) is classified into the paper's gait classes (:mod:`.gait`), its height
+  change replaced by the counted stairs, and accumulated.
+* Every ``update_period`` (1 s, "System model": synchronous mode) the accumulated strides
+  drive the process model (eq. 2) of the EKF (:mod:`.filter`, state eq. 1), then the tag
+  events that arrived are applied, and a pose is published.
+* **Deployment** (``TagDeployment``): the new tag is associated with the most probable
+  free tag site of the building by the distance cost of the tag database
+  (:class:`~firenav_framework.building.tags.TagDatabase`, "RFID and Database"), and the
+  deploying agent's position is corrected to it. The database is one per estimator: the
+  tags of the first team serve every later agent of the run.
+* **Detection** (``TagDetection``): the tag's site is a 3-D position update.
+* After a deployment or a detection at a door (or stair end), the next strides give the
+  door-crossing heading update of eq. 3 (:mod:`.door_heading`).
+
+Ports: ``pose`` (PoseEstimate at the time of the last stride integrated, covariance from
+P over E, N, Z and the heading perturbation, ``floor`` from Z) and ``diagnostics``
+(tag associations, rejected tags and door updates, unknown tags).
+"""
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from firenav_framework import (Estimator, Odometry, PerAgent, PoseEstimate, TagDeployment,
+                               TagDetection)
+from firenav_framework.building.tags import TagDatabase, TagSite
+from firenav_framework.messages import Message, Tick
+
+from .door_heading import HeadingWindow, door_heading_measurement
+from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter, rot2, wrap
+from .gait import GaitClassifier, StrideGait, count_stairs
+from .height import StairMap, snap_levels
+from .history import StrideHistory
+from .params import PdrEkfParams
+
+__all__ = ["PdrEkf"]
+
+#: Odometry motion labels -> gait classes (``gait_source: odometry``).
+MOTION_GAITS = {"walk": "FW", "crawl": "FW", "stairs_up": "SC", "stairs_down": "SDF",
+                "stairs_down_backward": "SDB", "still": "still"}
+#: Height uncertainty after a snap to a floor level or landing: 1 sigma [m].
+SNAP_SIGMA = 0.05
+#: Floor of the odometry's horizontal covariance per stride, so that P never collapses [m^2].
+MIN_STRIDE_VAR = 1e-6
+
+
+@dataclass
+class _Agent:
+    """Everything kept for one firefighter."""
+
+    device: str = ""
+    filt: PdrFilter | None = None
+    psi0: float = 0.0                 # odometry frame -> building frame rotation [rad]
+    gait: GaitClassifier | None = None
+    history: StrideHistory = field(default_factory=StrideHistory)
+    t_odo: float = -math.inf          # end of the last stride [s]
+    t_cycle: float | None = None      # time of the last synchronous update [s]
+    t_published: float = -math.inf
+    walk_dir: float = 0.0             # last walking direction, building frame before dtheta
+    # accumulated since the last update (eq. 2 input)
+    acc_d: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    acc_cov: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
+    acc_dz: float = 0.0
+    acc_var_z: float = 0.0
+    acc_turn: float = 0.0
+    stair_run: int = 0                # stair strides since the last level one
+    last_dz: float = 0.0              # height counted for the previous stride [m]
+    snap: bool = False                # a flight just ended: try the floor-level snap
+    events: list = field(default_factory=list)       # heap of (t, seq, message)
+    window: HeadingWindow | None = None
+    window_ready: bool = False
+    last_tag: tuple[str, float] | None = None
+    warned: set = field(default_factory=set)
+
+
+class PdrEkf(Estimator):
+    """RFID/MEMS extended Kalman filter: [E, N, Z, step scale, heading perturbation], tags on doors."""
+
+    name = "pdr_ekf"
+    inputs = (Odometry, TagDetection, TagDeployment)
+    outputs = {"pose": PoseEstimate}
+    provides = frozenset({"pdr_ekf"})
+    needs_building = True
+    Params = PdrEkfParams
+
+    @classmethod
+    def tick_period(cls, params: PdrEkfParams) -> float | None:
+        return params.update_period
+
+    def __init__(self, params: PdrEkfParams, ctx):
+        super().__init__(params, ctx)
+        self.state: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
+        self._seq = itertools.count()
+        self._unknown_tags: set[str] = set()
+        self.tags: TagDatabase | None = None
+        self._stairs: StairMap | None = None
+        self._levels = np.zeros(0)
+        self._door = params.door_config()
+
+    def start(self) -> None:
+        building = self.ctx.building
+        self.tags = TagDatabase(building)
+        for tag_id, site_id in self.params.surveyed_tags.items():
+            try:
+                self.tags.assign(tag_id, site_id)
+            except KeyError as exc:
+                sites = ", ".join(s.id for s in self.tags.sites[:8])
+                raise ValueError(f"surveyed_tags: {exc.args[0]} (sites look like: {sites}, ...)") from None
+        self._stairs = StairMap(building, self.params.stair_zone or 1.0)
+        self._levels = snap_levels(building)
+        if self.params.alignment == "entrance":
+            self._entrance()   # fail now, clearly, if there is none
+
+    def reset(self, agent: str) -> None:
+        self.state.reset(agent)
+
+    # -- input ---------------------------------------------------------------------------
+    def handle(self, stream: str, msg: Message) -> None:
+        if isinstance(msg, Tick):
+            for agent, st in self.state.items():
+                self._cycle(agent, st, msg.t)
+        elif isinstance(msg, Odometry):
+            self._odometry(msg)
+        elif isinstance(msg, (TagDetection, TagDeployment)):
+            if not self.params.rfid:
+                return
+            if not msg.agent or not math.isfinite(msg.t):
+                self.ctx.count("bad_tag_events")
+                return
+            st = self.state[msg.agent]
+            heapq.heappush(st.events, (msg.t, next(self._seq), msg))
+        else:
+            self.ctx.count("ignored_messages")
+
+    def finish(self) -> None:
+        for agent, st in self.state.items():
+            self._cycle(agent, st, max(st.t_odo, st.t_cycle or -math.inf), final=True)
+            if st.events:
+                self.ctx.count("tag_events_unused", len(st.events))
+
+    # -- odometry ----------------------------------------------------------------------
+    def _odometry(self, msg: Odometry) -> None:
+        st = self.state[msg.agent]
+        problem = _odometry_problem(msg)
+        if problem:
+            self.ctx.count("bad_odometry")
+            self._warn_once(st, msg.t, msg.agent, "bad_odometry", f"odometry skipped: {problem}")
+            return
+        if not st.device:
+            st.device = msg.device
+        elif msg.device != st.device:
+            self.ctx.count("odometry_other_device")
+            self._warn_once(st, msg.t, msg.agent, "second_odometry_device",
+                            f"odometry of {msg.device} ignored: {msg.agent} is tracked with "
+                            f"{st.device}")
+            return
+        if msg.t <= st.t_odo:
+            self.ctx.count("stale_odometry")
+            return
+        if st.filt is None:
+            self._initialise(msg.agent, st, msg)
+        p = self.params
+        delta = np.asarray(msg.delta, float)
+        foot = msg.heading - 0.5 * msg.dheading
+        gait = self._classify(st, msg, delta, foot)
+        R = rot2(st.psi0)
+        d = R @ delta[:2]
+        cov = R @ np.asarray(msg.cov, float)[:2, :2] @ R.T
+        if gait.gait != "still":
+            cov = cov + np.eye(2) * max(p.stride_noise ** 2, MIN_STRIDE_VAR)
+            st.walk_dir = math.atan2(d[1], d[0])
+        dz, var_z = self._height(st, gait, msg)
+        st.acc_d += d
+        st.acc_cov += cov
+        st.acc_dz += dz
+        st.acc_var_z += var_z
+        st.acc_turn += abs(msg.dheading)
+        st.history.add(max(msg.t_start, min(st.t_odo, msg.t)) if math.isfinite(st.t_odo)
+                       else msg.t_start, msg.t, d, dz, cov, gait.gait)
+        st.t_odo = msg.t
+        self.ctx.count(f"strides_{gait.gait}")
+        if gait.gait in ("SC", "SDF", "SDB"):
+            st.stair_run += 1
+        elif gait.gait == "FW":
+            st.snap = st.snap or st.stair_run > 0
+            st.stair_run = 0
+        if st.window is not None and gait.gait != "still":
+            st.window_ready = st.window.add(d, self._door) or st.window_ready
+        if p.update_period is None:
+            self._cycle(msg.agent, st, msg.t)
+
+    def _classify(self, st: _Agent, msg: Odometry, delta: np.ndarray, foot: float) -> StrideGait:
+        near = (self.params.stair_zone is None or not len(self._stairs)
+                or self._stairs.find(st.filt.x[:3]) is not None)
+        stride = st.gait.classify(delta, foot, near)
+        if self.params.gait_source == "odometry" and msg.motion in MOTION_GAITS:
+            return StrideGait(MOTION_GAITS[msg.motion], float(delta[2]), stride.d)
+        return stride
+
+    def _height(self, st: _Agent, gait: StrideGait, msg: Odometry) -> tuple[float, float]:
+        """Height change [m] and its variance [m^2] of one stride."""
+        p = self.params
+        if p.height_source == "ins":
+            return gait.dz, float(msg.cov[2, 2])
+        dz = var = 0.0
+        if gait.gait in ("SC", "SDF", "SDB"):
+            rise = (self._stairs.rise_at(st.filt.x[:3]) if p.step_height_from_building
+                    else None) or p.step_height
+            n = count_stairs(gait.dz, rise, p.max_stairs_per_stride)
+            dz, var = n * rise, (n * p.stair_sigma) ** 2
+        counted = dz
+        if gait.retract:
+            dz -= st.last_dz
+            self.ctx.count("stair_strides_retracted")
+        st.last_dz = counted
+        return dz, var
+
+    # -- alignment ---------------------------------------------------------------------
+    def _entrance(self):
+        building = self.ctx.building
+        if not building.entrances:
+            raise ValueError(f"building {building.name!r} has no entrance: use alignment "
+                             "'pose' with start_position/start_heading")
+        if self.params.entrance is None:
+            return building.entrances[0]
+        for e in building.entrances:
+            if e.id == self.params.entrance:
+                return e
+        raise ValueError(f"no entrance {self.params.entrance!r}; the building has "
+                         f"{', '.join(e.id for e in building.entrances)}")
+
+    def _initialise(self, agent: str, st: _Agent, first: Odometry) -> None:
+        """Place the odometry frame in the building (start pose, psi0) and start the filter."""
+        p = self.params
+        foot0 = first.heading - first.dheading
+        window = None
+        if p.alignment == "none":
+            start = np.asarray(first.position, float) - np.asarray(first.delta, float)
+            st.psi0 = 0.0
+        elif p.alignment == "pose":
+            start = np.asarray(p.start_position, float)
+            st.psi0 = wrap(p.start_heading - foot0)
+        else:
+            ent = self._entrance()
+            start = np.array([*ent.position, self.ctx.building.floors[ent.floor].z])
+            st.psi0 = wrap(ent.heading - foot0)
+            if p.entrance_heading_update:
+                window = HeadingWindow(f"entrance {ent.id}", ent.heading, False, first.t_start)
+        x0 = np.array([start[0], start[1], start[2], 1.0, 0.0])
+        P0 = np.diag([p.start_sigma ** 2, p.start_sigma ** 2, 0.05 ** 2,
+                      p.start_sigma_scale ** 2, p.start_sigma_heading ** 2])
+        st.filt = PdrFilter(x0, P0)
+        st.gait = GaitClassifier(p.gait_config())
+        st.walk_dir = wrap(foot0 + st.psi0)
+        st.t_cycle = first.t_start
+        if p.door_heading:
+            st.window = window
+
+    # -- the synchronous update -----------------------------------------------------------
+    def _cycle(self, agent: str, st: _Agent, t: float, final: bool = False) -> None:
+        """Eq. 2 prediction with the strides since the last update, then the tag events and
+        door heading, then the pose."""
+        if st.filt is None or st.t_cycle is None:
+            return
+        p = self.params
+        dt = max(0.0, t - st.t_cycle)
+        st.filt.predict(st.acc_d, st.acc_dz, st.acc_cov, st.acc_var_z,
+                        var_lambda=p.scale_rw ** 2 * dt,
+                        var_dtheta=p.heading_rw ** 2 * dt + (p.heading_turn_noise * st.acc_turn) ** 2)
+        st.acc_d, st.acc_cov = np.zeros(2), np.zeros((2, 2))
+        st.acc_dz = st.acc_var_z = st.acc_turn = 0.0
+        st.t_cycle = max(st.t_cycle, t)
+        while st.events and (st.events[0][0] <= st.t_odo or t - st.events[0][0] >= p.max_wait
+                             or final):
+            _, _, msg = heapq.heappop(st.events)
+            if isinstance(msg, TagDeployment):
+                self._deployment(agent, st, msg)
+            else:
+                self._detection(agent, st, msg)
+        if st.window is not None and st.window_ready:
+            self._door_heading(agent, st)
+        if st.snap:
+            self._floor_snap(st)
+        self._publish(agent, st)
+
+    def _position_at(self, st: _Agent, t: float) -> tuple[np.ndarray, np.ndarray, tuple]:
+        """Estimated position (3,) [m] at time ``t`` and its horizontal covariance (2, 2),
+        with the displacement since then (for the delayed update)."""
+        D, dz, C = st.history.since(t)
+        x = st.filt.x
+        R = rot2(x[I_DTHETA])
+        lam = x[I_LAMBDA]
+        pos = x[:3] - np.array([*(lam * (R @ D)), dz])
+        cov = st.filt.P[:2, :2] + lam ** 2 * (R @ C @ R.T)
+        return pos, cov, (D, dz, C)
+
+    def _deployment(self, agent: str, st: _Agent, msg: TagDeployment) -> None:
+        """Associate a new tag with the most probable door (distance cost), then correct."""
+        p = self.params
+        pos, cov, since = self._position_at(st, msg.t)
+        floor = self._floor(pos[2])
+        known = self.tags.lookup(msg.tag_id)
+        try:
+            site = self.tags.associate(msg.tag_id, pos, floor,
+                                       sigma=cov + np.eye(2) * p.tag_sigma ** 2,
+                                       gate=p.associate_gate)
+        except LookupError as exc:
+            site = None
+            self.ctx.diagnose(msg.t, "warning", "tag_not_associated", str(exc), agent=agent)
+        if site is None:
+            self.ctx.count("tags_not_associated")
+            self.ctx.diagnose(msg.t, "warning", "tag_not_associated",
+                              f"tag {msg.tag_id} deployed by {agent} near ({pos[0]:.1f}, "
+                              f"{pos[1]:.1f}) on floor {floor}: no tag site close enough",
+                              agent=agent)
+            return
+        if known is None:
+            self.ctx.count("tags_associated")
+            dist = float(np.hypot(*(site.position[:2] - pos[:2])))
+            self.ctx.diagnose(msg.t, "info", "tag_associated",
+                              f"tag {msg.tag_id} -> {site.id} (floor {site.floor}), "
+                              f"{dist:.1f} m from {agent}'s estimate", agent=agent)
+        if p.correct_on_deploy:
+            self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=None)
+        self._open_window(st, site, msg.t)
+        st.last_tag = (msg.tag_id, msg.t)
+
+    def _detection(self, agent: str, st: _Agent, msg: TagDetection) -> None:
+        p = self.params
+        if st.last_tag is not None and st.last_tag[0] == msg.tag_id \
+                and msg.t - st.last_tag[1] < p.repeat_holdoff:
+            self.ctx.count("tag_repeats_ignored")
+            return
+        site = self.tags.lookup(msg.tag_id)
+        if site is None:
+            self.ctx.count("tags_unknown")
+            if msg.tag_id not in self._unknown_tags:
+                self._unknown_tags.add(msg.tag_id)
+                self.ctx.diagnose(msg.t, "warning", "unknown_tag",
+                                  f"{agent} read tag {msg.tag_id}, which no one deployed and "
+                                  "no survey lists: not used", agent=agent)
+            return
+        if not st.history.covers(msg.t) and math.isfinite(st.t_odo) and msg.t < st.t_odo:
+            self.ctx.count("tag_events_too_old")
+            return
+        _, _, since = self._position_at(st, msg.t)
+        if self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=p.tag_gate):
+            self._open_window(st, site, msg.t)
+            st.last_tag = (msg.tag_id, msg.t)
+
+    def _position_update(self, agent: str, st: _Agent, t: float, tag_id: str, site: TagSite,
+                         since: tuple, gate: float | None) -> bool:
+        """Eq. "RFID Positioning": the site's E, N and its floor level for Z."""
+        p = self.params
+        z = np.array([site.position[0], site.position[1],
+                      self.ctx.building.floors[site.floor].z])
+        Rm = np.diag([p.tag_sigma ** 2, p.tag_sigma ** 2, p.tag_sigma_z ** 2])
+        D, dz, C = since
+        relocate = p.relocate_heading_sigma if p.on_gate == "relocate" else None
+        res = st.filt.update_position(z, Rm, D, dz, C, gate=gate, relocate=relocate)
+        if res.relocated:
+            self.ctx.count("tag_relocations")
+            self.ctx.diagnose(t, "warning", "tag_relocation",
+                              f"tag {tag_id} at {site.id} is {np.hypot(*res.innovation[:2]):.1f} m "
+                              f"from {agent}'s estimate ({math.sqrt(res.nis):.1f} sigma): "
+                              "the track had drifted; re-located at the tag", agent=agent)
+        if res.applied:
+            self.ctx.count("tag_updates")
+            return True
+        self.ctx.count("tag_updates_rejected")
+        self.ctx.diagnose(t, "warning", "tag_rejected",
+                          f"tag {tag_id} at {site.id} is {np.hypot(*res.innovation[:2]):.1f} m "
+                          f"from {agent}'s estimate ({math.sqrt(res.nis):.1f} sigma): not used "
+                          "(a duplicated tag id, or a wrong association?)", agent=agent)
+        return False
+
+    def _open_window(self, st: _Agent, site: TagSite, t: float) -> None:
+        """Collect the strides after the tag for the door heading (eq. 3)."""
+        if not self.params.door_heading or site.kind not in self.params.heading_sites:
+            return
+        if st.window is not None:
+            self.ctx.count("door_headings_superseded")
+        st.window = HeadingWindow(site.id, site.heading, True, t)
+        st.window_ready = False
+        for s in st.history.after(t):
+            if s.gait != "still":
+                st.window_ready = st.window.add(s.d, self._door) or st.window_ready
+
+    def _door_heading(self, agent: str, st: _Agent) -> None:
+        win, st.window, st.window_ready = st.window, None, False
+        m = door_heading_measurement(win, float(st.filt.x[I_DTHETA]), self._door)
+        text = (f"{win.site}: crossing {math.degrees(m.crossing):.0f} deg, MEMS walking "
+                f"{math.degrees(m.mean_mems):.0f} deg, discrepancy "
+                f"{math.degrees(m.discrepancy):+.1f} deg")
+        if not m.accepted:
+            self.ctx.count("door_headings_rejected")
+            self.ctx.diagnose(win.t, "info", "door_heading_rejected", text + ": not used",
+                              agent=agent)
+            return
+        st.filt.update_heading(m.z, m.var)
+        self.ctx.count("door_headings")
+        self.ctx.diagnose(win.t, "info", "door_heading", text + f", sigma "
+                          f"{math.degrees(math.sqrt(m.var)):.1f} deg", agent=agent)
+
+    def _floor_snap(self, st: _Agent) -> None:
+        """A flight just ended: a height near a floor level or landing is set to it."""
+        st.snap = False
+        if self.params.floor_snap <= 0 or not len(self._levels):
+            return
+        z = float(st.filt.x[I_Z])
+        level = float(self._levels[np.argmin(np.abs(self._levels - z))])
+        if abs(level - z) <= self.params.floor_snap:
+            st.filt.set_height(level, SNAP_SIGMA ** 2)
+            self.ctx.count("floor_snaps")
+
+    # -- output ---------------------------------------------------------------------------
+    def _publish(self, agent: str, st: _Agent) -> None:
+        if not st.t_odo > st.t_published:
+            return
+        x, P = st.filt.x, st.filt.P
+        idx = [0, 1, 2, I_DTHETA]
+        cov = P[np.ix_(idx, idx)].copy()
+        self.ctx.publish("pose", PoseEstimate(
+            t=st.t_odo, agent=agent, device=st.device, position=x[:3].copy(),
+            heading=wrap(st.walk_dir + x[I_DTHETA]), cov=cov,
+            floor=self._floor(x[I_Z])))
+        st.t_published = st.t_odo
+
+    def _floor(self, z: float) -> int:
+        """Floor of height ``z`` [m], to the millimetre: a counted landing half way between
+        two floors falls on the building's tie-break side, not on a rounding error's."""
+        return int(self.ctx.building.floor_of_z(round(float(z), 3)))
+
+    def _warn_once(self, st: _Agent, t: float, agent: str, code: str, text: str) -> None:
+        if code not in st.warned:
+            st.warned.add(code)
+            self.ctx.diagnose(t, "warning", code, text, agent=agent)
+
+
+def _odometry_problem(msg: Odometry) -> str:
+    """Why an Odometry message cannot be used ('' when it can)."""
+    delta = np.asarray(msg.delta, float)
+    if delta.shape != (3,):
+        return f"delta has shape {delta.shape}, expected (3,)"
+    if not np.all(np.isfinite(delta)) or not math.isfinite(msg.dheading):
+        return "non-finite increment"
+    if not math.isfinite(msg.heading) or not np.all(np.isfinite(np.asarray(msg.position, float))):
+        return "non-finite absolute pose"
+    cov = np.asarray(msg.cov, float)
+    if not np.all(np.isfinite(cov)) or np.any(np.diag(cov) < 0):
+        return "covariance not finite or with negative variances"
+    if not msg.t >= msg.t_start or not math.isfinite(msg.t):
+        return f"interval ends ({msg.t}) before it starts ({msg.t_start})"
+    return ""
