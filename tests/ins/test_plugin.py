@@ -111,8 +111,10 @@ def test_raw_device_frame_is_refused():
                                frame="device")
     comp, rec, stats = make_component(ZuptIns, {})
     comp.handle("imu", raw)
-    assert stats.counts["under_test"]["rejected_blocks_not_flu"] == 1
-    assert rec.on("diagnostics")[0].code == "imu_not_flu"
+    comp.handle("imu", raw.shifted(0.2))
+    assert stats.counts["under_test"]["rejected_blocks_not_flu"] == 2
+    # reported once (rate-limited), counted every time
+    assert [d.code for d in rec.on("diagnostics")] == ["imu_not_flu"]
 
 
 def test_gap_is_counted_and_bounded():

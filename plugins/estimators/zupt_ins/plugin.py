@@ -33,6 +33,8 @@ RATE_SAMPLES = 50
 MAX_SWING = 10.0
 #: Change of the mounting yaw estimate [rad] that is reported again.
 YAW_REPORT_STEP = math.radians(5.0)
+#: A recurring input problem of one device is reported at most once per this much data time [s].
+REPORT_INTERVAL = 10.0
 
 
 @dataclass
@@ -50,6 +52,7 @@ class _Device:
     tail: np.ndarray = field(default_factory=lambda: np.zeros((0, eskf.N_OUT)))
     state_slot: float = -math.inf
     yaw_reported: float | None = None
+    reported: dict[str, float] = field(default_factory=dict)   # problem code -> last report t
 
     @property
     def n_pending(self) -> int:
@@ -81,10 +84,9 @@ class ZuptIns(Estimator):
         dev = self._device(msg.agent, msg.device)
         if msg.frame != "FLU":
             self.ctx.count("rejected_blocks_not_flu")
-            self.ctx.diagnose(msg.t, "error", "imu_not_flu",
-                              f"{msg.device}: ImuBlock in frame '{msg.frame}', expected FLU "
-                              "(put a foot_imu sensor with the right `axes` before zupt_ins)",
-                              agent=msg.agent)
+            self._report(dev, msg, "error", "imu_not_flu",
+                         f"ImuBlock in frame '{msg.frame}', expected FLU (put a foot_imu "
+                         "sensor with the right `axes` before zupt_ins)")
             return
         t, acc, gyro = self._screen(dev, msg)
         if len(t) == 0:
@@ -108,17 +110,27 @@ class ZuptIns(Estimator):
         bad = int(len(t) - finite.sum())
         if bad:
             self.ctx.count("rejected_samples_nonfinite", bad)
+            self._report(dev, msg, "warning", "imu_nonfinite",
+                         f"{bad} sample(s) with NaN/inf values were dropped")
             t, acc, gyro = t[finite], acc[finite], gyro[finite]
         prev_max = np.maximum.accumulate(np.concatenate(([dev.last_t], t)))[:-1]
         ordered = t > prev_max
         back = int(len(t) - ordered.sum())
         if back:
             self.ctx.count("rejected_samples_time_backwards", back)
-            self.ctx.diagnose(msg.t, "warning", "imu_time_backwards",
-                              f"{msg.device}: {back} sample(s) not later than the previous "
-                              "one were dropped", agent=msg.agent)
+            self._report(dev, msg, "warning", "imu_time_backwards",
+                         f"{back} sample(s) not later than the previous one were dropped")
             t, acc, gyro = t[ordered], acc[ordered], gyro[ordered]
         return t, acc, gyro
+
+    def _report(self, dev: _Device, msg: ImuBlock, level: str, code: str, text: str) -> None:
+        """A diagnostic about bad input, at most once per REPORT_INTERVAL per device and code
+        (the counts in the run summary have every occurrence)."""
+        last = dev.reported.get(code)
+        if last is not None and abs(msg.t - last) < REPORT_INTERVAL:
+            return
+        dev.reported[code] = msg.t
+        self.ctx.diagnose(msg.t, level, code, f"{msg.device}: {text}", agent=msg.agent)
 
     def _device(self, agent: str, device: str) -> _Device:
         devices = self.state[agent]
