@@ -44,7 +44,7 @@ from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import eskf  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.metrics import (  # noqa: E402
-    DATASET_MIRROR, pyshoe_armse, stride_errors)
+    pyshoe_armse, stride_errors)
 from firenav_plugins.estimators.zupt_ins.retro import correct_positions  # noqa: E402
 
 FLU = np.array([1.0, -1.0, -1.0])     # the datasets' z-down MicroStrain -> FLU
@@ -85,7 +85,7 @@ def run(params: ZuptInsParams, t: np.ndarray, imu: np.ndarray) -> tuple[BlockRes
 
 def eval_trial(params: ZuptInsParams, tr: ViconTrial) -> TrialResult:
     _, pos = run(params, tr.ts, tr.imu)
-    armse = pyshoe_armse(pos[:, :2] * DATASET_MIRROR, tr.gt)
+    armse = pyshoe_armse(pos[:, :2], tr.gt)
     vertical = float(np.mean(np.abs((pos[:, 2] - pos[0, 2]) - (tr.gt[:, 2] - tr.gt[0, 2]))))
     return TrialResult(armse, vertical)
 
@@ -93,7 +93,7 @@ def eval_trial(params: ZuptInsParams, tr: ViconTrial) -> TrialResult:
 def eval_walk(params: ZuptInsParams, w: IndoorWalk) -> WalkResult:
     _, pos = run(params, w.ts, w.imu)
     at = pos[w.stride_index]
-    e = stride_errors(at[:, :2] * DATASET_MIRROR, w.gcp, n_align=N_ALIGN)
+    e = stride_errors(at[:, :2], w.gcp, n_align=N_ALIGN)
     return WalkResult(e.mean, e.final, e.mean_percent, float(np.mean(np.abs(at[:, 2]))))
 
 

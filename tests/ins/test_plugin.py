@@ -48,6 +48,10 @@ def test_building_frame_from_initial_pose():
     expected = np.array([10.0 - ins.position[1], 5.0 + ins.position[0], 3.0 + ins.position[2]])
     np.testing.assert_allclose(pose.position, expected, atol=1e-12)
     assert abs(pose.heading - (ins.heading + h)) < 1e-12
+    assert pose.frame == "building"
+    unplaced = run_component(ZuptIns, {}, blocks()).on("pose")[-1]
+    assert unplaced.frame == "odometry"          # not placed in the building: its own frame
+    np.testing.assert_allclose(unplaced.position, ins.position, atol=1e-12)
     # the covariance turns with the frame: x variance becomes y variance
     odo_cov = np.diag([1.0, 2.0, 3.0, 4.0])
     _, _, cov = make_component(ZuptIns, {"initial_heading": h})[0]._to_building(

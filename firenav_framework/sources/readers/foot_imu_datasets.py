@@ -48,6 +48,13 @@ __all__ = ["ViconTrial", "IndoorWalk", "load_vicon_trial", "load_indoor_walk",
 #: ``best_error`` in all 56 trials; ``ared``/``amvd`` cannot be told apart that way).
 VICON_DETECTORS = ("shoe", "ared", "amvd", "mbgtd", "vicon")
 
+#: The files' horizontal truth (VICON ``gt`` x, y; the walks' ``GCP`` and
+#: ``pyshoeTrajectory``) is the mirror image of an ENU frame: PyShoe navigates z-down
+#: and compares x, y by rotation only. The loaders multiply the stored x, y by this, so
+#: the arrays and messages they give are right-handed ENU (z up) and a rotation plus a
+#: translation aligns them with any INS track. Without it every turn would go the wrong way.
+ENU_FROM_DATASET_XY = np.array([1.0, -1.0])
+
 #: Rate [Hz] at which dense truth and reference trajectories are published.
 TRAJECTORY_RATE_HZ = 20.0
 
@@ -62,7 +69,8 @@ class ViconTrial:
     ``ts`` (N,) sample times [s] (start near 0); ``imu`` (N, 6) specific force
     [m/s^2] x, y, z then angular rate [rad/s] x, y, z in the **device frame** (z
     down); ``gt`` (N, 3) foot position [m] from VICON interpolated to every sample,
-    VICON frame; ``zv`` zero-velocity labels (N,) bool per detector name;
+    VICON frame made right-handed ENU (stored y negated, see
+    :data:`ENU_FROM_DATASET_XY`; z up); ``zv`` zero-velocity labels (N,) bool per detector name;
     ``thresholds`` each detector's tuned threshold ``G_<det>_opt``;
     ``trial_error`` (5,) the published error per detector (order: probably
     :data:`VICON_DETECTORS`), ``best_detector`` and ``best_error`` as stored.
@@ -97,7 +105,8 @@ class IndoorWalk:
     z down); ``stride_index`` (K,) **0-based** sample index of each stride (checked on
     walk 31, whose ``traj_wcf[strideIndex]`` equals its ``reconstructed_traj_wcf``);
     ``gcp`` (K, 2) surveyed footprint [m] at each stride, the ground truth;
-    ``pyshoe`` (N, 2) PyShoe's stored trajectory [m]; ``theta``, ``theta_pyshoe``,
+    ``pyshoe`` (N, 2) PyShoe's stored trajectory [m] (both with the stored y negated,
+    see :data:`ENU_FROM_DATASET_XY`); ``theta``, ``theta_pyshoe``,
     ``theta_gcp`` the stored heading offsets [rad]; ``traveled_distance`` [m] and
     ``traverse_time`` [s] as stored.
     """
@@ -177,6 +186,7 @@ def load_vicon_trial(path: str | Path) -> ViconTrial:
     n = len(ts)
     imu = _matrix(data, "imu", path, cols=6, rows=n)
     gt = _matrix(data, "gt", path, cols=3, rows=n)
+    gt[:, :2] *= ENU_FROM_DATASET_XY
     zv = {d: _matrix(data, f"zv_{d}_opt", path, rows=n).astype(bool)
           for d in VICON_DETECTORS if f"zv_{d}_opt" in data}
     thresholds = {d: _scalar(data, f"G_{d}_opt") for d in VICON_DETECTORS
@@ -198,8 +208,8 @@ def load_indoor_walk(path: str | Path) -> IndoorWalk:
     stride = _matrix(data, "strideIndex", path)
     if np.any(stride != np.round(stride)) or np.any((stride < 0) | (stride >= n)):
         raise ReaderError(f"{path}: strideIndex must hold sample indices 0..{n - 1}")
-    gcp = _matrix(data, "GCP", path, cols=2, rows=len(stride))
-    pyshoe = (_matrix(data, "pyshoeTrajectory", path, cols=2, rows=n)
+    gcp = _matrix(data, "GCP", path, cols=2, rows=len(stride)) * ENU_FROM_DATASET_XY
+    pyshoe = (_matrix(data, "pyshoeTrajectory", path, cols=2, rows=n) * ENU_FROM_DATASET_XY
               if "pyshoeTrajectory" in data else np.full((n, 2), np.nan))
     return IndoorWalk(path=path, ts=ts, imu=imu, stride_index=stride.astype(np.int64), gcp=gcp,
                       pyshoe=pyshoe, theta=_scalar(data, "theta"),

@@ -18,12 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Both datasets' horizontal truth (VICON ``gt`` x, y; the walks' ``GCP`` and
-#: ``pyshoeTrajectory``) is the mirror image of ENU: PyShoe navigates z-down and compares
-#: x, y by rotation only. Multiply ENU x, y by this before comparing (a rotation cannot
-#: undo a reflection: without it every turn goes the wrong way).
-DATASET_MIRROR = np.array([1.0, -1.0])
-
 PYSHOE_ALIGN_DISTANCE = 0.8   # [m] PyShoe align_plots(dist=0.8)
 PYSHOE_FALLBACK_INDEX = 300   # sample used when the trajectory never gets 0.8 m away
 

@@ -127,11 +127,12 @@ class ZuptInsParams(Params):
                                 "standing still")
     state_rate: float = param(0.0, unit="Hz", ge=0, description="full-rate state output on "
                               "port 'state' at this rate (0: off)")
-    initial_position: tuple[float, float, float] = param((0.0, 0.0, 0.0), unit="m",
-                                                         description="building-frame ENU "
-                                                         "position of the start")
-    initial_heading: float = param(0.0, unit="rad", description="building-frame heading of "
-                                   "the IMU x axis at the start")
+    initial_position: tuple[float, float, float] | None = param(
+        None, unit="m", description="building-frame ENU position of the start; without it "
+        "(and initial_heading) the poses are in the INS's own 'odometry' frame, origin at "
+        "the start")
+    initial_heading: float | None = param(None, unit="rad", description="building-frame "
+                                          "heading of the IMU x axis at the start")
     stair_rise: float = param(0.10, unit="m", gt=0, description="height change of a step "
                               "labelled stairs")
     crawl_tilt: float = param(60 * DEG, unit="rad", gt=0, le=math.pi, description="tilt of "

@@ -71,10 +71,14 @@ class ZuptIns(Estimator):
     def __init__(self, params: ZuptInsParams, ctx):
         super().__init__(params, ctx)
         self.state: PerAgent[dict[str, _Device]] = PerAgent(lambda agent: {})
-        h = params.initial_heading
+        placed = params.initial_position is not None or params.initial_heading is not None
+        #: "building" once the user placed the start in the building, else the INS's own
+        self._frame = "building" if placed else "odometry"
+        self._heading0 = params.initial_heading or 0.0
+        h = self._heading0
         self._rot = np.array([[math.cos(h), -math.sin(h), 0.0],
                               [math.sin(h), math.cos(h), 0.0], [0.0, 0.0, 1.0]])
-        self._origin = np.asarray(params.initial_position, float)
+        self._origin = np.asarray(params.initial_position or (0.0, 0.0, 0.0), float)
 
     # -- input ---------------------------------------------------------------------------
     def handle(self, stream: str, msg: Message) -> None:
@@ -200,7 +204,7 @@ class ZuptIns(Estimator):
                      ) -> tuple[np.ndarray, float, np.ndarray]:
         T = np.eye(4)
         T[:3, :3] = self._rot
-        return (self._origin + self._rot @ position, wrap(self.params.initial_heading + heading),
+        return (self._origin + self._rot @ position, wrap(self._heading0 + heading),
                 T @ cov @ T.T)
 
     def _publish_step(self, agent: str, dev: _Device, step: Step) -> None:
@@ -210,7 +214,8 @@ class ZuptIns(Estimator):
             heading=step.heading, motion=step.motion))
         pos, heading, cov = self._to_building(step.position, step.heading, step.cov_abs)
         self.ctx.publish("pose", PoseEstimate(t=step.t, agent=agent, device=dev.device,
-                                              position=pos, heading=heading, cov=cov))
+                                              position=pos, heading=heading, cov=cov,
+                                              frame=self._frame))
         yaw = dev.steps.mount_yaw
         if yaw is not None and (dev.yaw_reported is None
                                 or abs(wrap(yaw - dev.yaw_reported)) > YAW_REPORT_STEP):
@@ -247,5 +252,6 @@ class ZuptIns(Estimator):
                                                   float(row[eskf.O_YAW]), cov)
             self.ctx.publish("state", PoseEstimate(t=float(row[eskf.O_T]), agent=agent,
                                                    device=dev.device, position=pos,
-                                                   heading=heading, cov=cov))
+                                                   heading=heading, cov=cov,
+                                                   frame=self._frame))
 
