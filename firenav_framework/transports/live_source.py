@@ -45,9 +45,10 @@ class LiveParams(Params):
                                 "and silent this long raises device_silent")
     report_every: float = param(10.0, unit="s", ge=0, description="link_health report "
                                 "period (0: never)")
-    agents: dict[str, str] = param({}, description="device-key pattern -> firefighter id, "
-                                   "so silence diagnostics name the firefighter "
-                                   "(e.g. {'sys1/*': ff1, 'can0/0x11?': ff1})")
+    device_agents: dict[str, str] = param({}, description="device-key pattern -> "
+                                          "firefighter id, so silence diagnostics name the "
+                                          "firefighter whose track goes stale (e.g. "
+                                          "{'sys1/*': ff1, 'can0/0x11?': ff1})")
     reconnect_s: float = param(1.0, unit="s", gt=0, description="retry period while the "
                                "link is down")
     idle_exit_s: float = param(0.0, unit="s", ge=0, description="end the source after "
@@ -68,7 +69,7 @@ class LiveSource(Source):
         self.link = self.make_link()
         self.recorder: RotatingRecorder | None = None
         self.monitor = LinkMonitor(ctx.id, silent_after=params.silent_after,
-                                   report_every=params.report_every, agents=params.agents)
+                                   report_every=params.report_every, agents=params.device_agents)
 
     # -- what a transport provides ------------------------------------------------------
     def make_link(self) -> Link:

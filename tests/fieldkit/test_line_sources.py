@@ -68,7 +68,7 @@ class _Device:
 def test_serial_device_unplugged_and_back(running, tmp_path):
     dev = _Device()
     src = running(SerialLinesSource, {"url": f"socket://127.0.0.1:{dev.port}", "device": "uwb0",
-                                      "reconnect_s": 0.1, "agents": {"uwb0": "ff2"}},
+                                      "reconnect_s": 0.1, "device_agents": {"uwb0": "ff2"}},
                   tmp_path, cid="uwb")
     try:
         assert dev.accepted.wait(30)

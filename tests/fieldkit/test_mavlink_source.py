@@ -29,7 +29,7 @@ def _imu_packets(sysid: int, n: int) -> list[bytes]:
 def test_udp_frames_errors_and_tlog_replay(running, tmp_path):
     port = free_port()
     src = running(MavlinkSource, {"url": f"udpin:127.0.0.1:{port}", "heartbeat_s": 0,
-                                  "agents": {"sys7/*": "ff7"}}, tmp_path, cid="mav")
+                                  "device_agents": {"sys7/*": "ff7"}}, tmp_path, cid="mav")
     wait_for(lambda: src.source.link.conn is not None, what="socket open")
     packets = _imu_packets(7, 200) + _imu_packets(9, 10)
     corrupt = bytearray(packets[3])
