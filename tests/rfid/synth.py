@@ -60,9 +60,11 @@ def join(*walks: Walk, pause: float = 0.0) -> Walk:
 
 def odometry(w: Walk, *, agent: str = "ff1", yaw: float = -2.0, bias: float = 0.0,
              rate: float = 0.0, scale: float = 1.0, noise: float = 0.0, dz_noise: float = 0.0,
-             gradient: tuple[float, float] = (0.0, 0.0), rng=None) -> list[Odometry]:
+             gradient: tuple[float, float] = (0.0, 0.0), labels: bool = False,
+             rng=None) -> list[Odometry]:
     """INS odometry of the strides of ``w`` (module docstring). ``gradient`` (2,) [m/m]:
-    the INS's vertical drift per metre walked along the INS frame's x and y."""
+    the INS's vertical drift per metre walked along the INS frame's x and y. ``labels``:
+    set the ``motion`` labels a perfect INS gait classifier would give."""
     rng = rng or np.random.default_rng(0)
     out, pos = [], np.zeros(3)
     prev_heading = None
@@ -81,9 +83,13 @@ def odometry(w: Walk, *, agent: str = "ff1", yaw: float = -2.0, bias: float = 0.
         heading = math.remainder(heading, 2 * math.pi)
         dheading = 0.0 if prev_heading is None else math.remainder(heading - prev_heading, 2 * math.pi)
         pos = pos + delta
+        motion = ""
+        if labels:
+            motion = ("walk" if abs(d[2]) < 0.05 else "stairs_up" if d[2] > 0 else
+                      "stairs_down_backward" if w.backwards[k] else "stairs_down")
         out.append(Odometry(t=float(w.t[k + 1]), agent=agent, device=f"{agent}/imu",
                             t_start=float(w.t[k]), delta=delta, dheading=dheading,
-                            cov=ODO_COV, position=pos.copy(), heading=heading))
+                            cov=ODO_COV, position=pos.copy(), heading=heading, motion=motion))
         prev_heading = heading
     return out
 

@@ -39,8 +39,8 @@ def stairwell_round_trip() -> tuple:
     return up, join(up, down, pause=2.0)
 
 
-def run(building, w, dz_noise=0.03, **params):
-    odo = odometry(w, yaw=0.4, dz_noise=dz_noise, gradient=(0.05, -0.03),
+def run(building, w, dz_noise=0.03, labels=False, **params):
+    odo = odometry(w, yaw=0.4, dz_noise=dz_noise, gradient=(0.05, -0.03), labels=labels,
                    rng=np.random.default_rng(3))
     ekf, rec, stats = make_component(PdrEkf, dict(
         alignment="pose", start_position=(4.5, 6.75, 0.0),
@@ -69,6 +69,21 @@ def test_climb_and_backward_descent_give_the_right_floors(building):
     assert changes == [1, 0]                      # once up, once down: no flicker
     assert counts["strides_SC"] >= 9 and counts["strides_SDB"] >= 9
     assert counts.get("strides_SDF", 0) <= 1      # the descent is recognised as backward
+
+
+@pytest.mark.parametrize("params", [dict(gait_source="odometry"), dict(height_source="ins")],
+                         ids=["ins_labels", "ins_height"])
+def test_other_gait_and_height_sources(building, params):
+    """The odometry's own motion labels, or the INS height change (drift-corrected)
+    instead of counted stairs: the floors are right too."""
+    up, w = stairwell_round_trip()
+    poses, counts = run(building, w, labels=True, **params)
+    top = [p for p in poses if p.t <= up.t[-1]][-1]
+    assert top.floor == 1 and poses[-1].floor == 0
+    if "gait_source" in params:
+        assert counts["strides_SDB"] == 10 and counts["strides_SC"] == 10
+    else:
+        assert top.position[2] == pytest.approx(3.5, abs=0.1)   # snapped, then INS noise
 
 
 def test_nominal_20cm_stairs_without_map_aid(building):

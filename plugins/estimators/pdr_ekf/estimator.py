@@ -38,7 +38,7 @@ from firenav_framework.messages import Message, Tick
 
 from .door_heading import HeadingWindow, door_heading_measurement
 from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter, rot2, wrap
-from .gait import GaitClassifier, StrideGait, count_stairs
+from .gait import GaitClassifier, GaitConfig, StrideGait, count_stairs
 from .height import StairMap, snap_levels
 from .history import StrideHistory
 from .params import PdrEkfParams
@@ -151,11 +151,26 @@ class PdrEkf(Estimator):
     # -- odometry ----------------------------------------------------------------------
     def _odometry(self, msg: Odometry) -> None:
         st = self.state[msg.agent]
+        if not self._accept(st, msg):
+            return
+        if st.filt is None:
+            if self.params.alignment != "none" and _is_still(msg):
+                # standing at the start: the INS yaw may drift, so the start heading
+                # belongs to the moment the walk begins
+                self.ctx.count("strides_before_start")
+                return
+            self._initialise(msg.agent, st, msg)
+        self._integrate(st, msg)
+        if self.params.update_period is None:
+            self._cycle(msg.agent, st, msg.t)
+
+    def _accept(self, st: _Agent, msg: Odometry) -> bool:
+        """Whether a stride is usable: well-formed, from the agent's tracked device, new."""
         problem = _odometry_problem(msg)
         if problem:
             self.ctx.count("bad_odometry")
             self._warn_once(st, msg.t, msg.agent, "bad_odometry", f"odometry skipped: {problem}")
-            return
+            return False
         if not st.device:
             st.device = msg.device
         elif msg.device != st.device:
@@ -163,21 +178,22 @@ class PdrEkf(Estimator):
             self._warn_once(st, msg.t, msg.agent, "second_odometry_device",
                             f"odometry of {msg.device} ignored: {msg.agent} is tracked with "
                             f"{st.device}")
-            return
+            return False
         if msg.t <= st.t_odo:
             self.ctx.count("stale_odometry")
-            return
-        if st.filt is None:
-            self._initialise(msg.agent, st, msg)
-        p = self.params
+            return False
+        return True
+
+    def _integrate(self, st: _Agent, msg: Odometry) -> None:
+        """Classify a stride, rotate it into the building frame, count its stairs, and
+        add it to the eq. 2 input of the next update, the history and the heading window."""
         delta = np.asarray(msg.delta, float)
-        foot = msg.heading - 0.5 * msg.dheading
-        gait = self._classify(st, msg, delta, foot)
+        gait = self._classify(st, msg, delta, msg.heading - 0.5 * msg.dheading)
         R = rot2(st.psi0)
         d = R @ delta[:2]
         cov = R @ np.asarray(msg.cov, float)[:2, :2] @ R.T
         if gait.gait != "still":
-            cov = cov + np.eye(2) * max(p.stride_noise ** 2, MIN_STRIDE_VAR)
+            cov = cov + np.eye(2) * max(self.params.stride_noise ** 2, MIN_STRIDE_VAR)
             st.walk_dir = math.atan2(d[1], d[0])
         dz, var_z = self._height(st, gait, msg)
         st.acc_d += d
@@ -185,8 +201,8 @@ class PdrEkf(Estimator):
         st.acc_dz += dz
         st.acc_var_z += var_z
         st.acc_turn += abs(msg.dheading)
-        st.history.add(max(msg.t_start, min(st.t_odo, msg.t)) if math.isfinite(st.t_odo)
-                       else msg.t_start, msg.t, d, dz, cov, gait.gait)
+        start = msg.t_start if not math.isfinite(st.t_odo) else max(msg.t_start, st.t_odo)
+        st.history.add(start, msg.t, d, dz, cov, gait.gait)
         st.t_odo = msg.t
         self.ctx.count(f"strides_{gait.gait}")
         if gait.gait in ("SC", "SDF", "SDB"):
@@ -196,8 +212,6 @@ class PdrEkf(Estimator):
             st.stair_run = 0
         if st.window is not None and gait.gait != "still":
             st.window_ready = st.window.add(d, self._door) or st.window_ready
-        if p.update_period is None:
-            self._cycle(msg.agent, st, msg.t)
 
     def _classify(self, st: _Agent, msg: Odometry, delta: np.ndarray, foot: float) -> StrideGait:
         near = (self.params.stair_zone is None or not len(self._stairs)
@@ -445,6 +459,11 @@ class PdrEkf(Estimator):
         if code not in st.warned:
             st.warned.add(code)
             self.ctx.diagnose(t, "warning", code, text, agent=agent)
+
+
+def _is_still(msg: Odometry) -> bool:
+    """A rest event or a stride too short to walk (the gait classifier's 'still')."""
+    return msg.motion == "still" or float(np.linalg.norm(msg.delta)) < GaitConfig.still_distance
 
 
 def _odometry_problem(msg: Odometry) -> str:

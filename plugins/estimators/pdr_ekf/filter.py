@@ -135,7 +135,7 @@ class PdrFilter:
         self.P[:, :2] = 0.0
         self.P[:2, :2] = np.eye(2) * d2
         self.P[I_DTHETA, I_DTHETA] += relocate ** 2
-        res = self._update(innov, H, Rm, None)
+        self._update(innov, H, Rm, None)
         return Update(res.innovation, res.nis, True, relocated=True)
 
     def update_heading(self, z: float, var: float) -> Update:

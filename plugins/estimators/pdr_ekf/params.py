@@ -28,9 +28,10 @@ class PdrEkfParams(Params):
     # -- alignment of the odometry frame -------------------------------------------------
     alignment: Literal["entrance", "pose", "none"] = param(
         "entrance", description="how the odometry frame is placed in the building: "
-        "'entrance' = start at the building entrance, the foot pointing inward; 'pose' = "
-        "start_position/start_heading; 'none' = the odometry is already in the building "
-        "frame (dead_reckoning output, e.g. ORCA-corrected)")
+        "'entrance' = start at the building entrance, the foot pointing inward when the "
+        "walk begins; 'pose' = start_position/start_heading when the walk begins; 'none' "
+        "= the odometry is already in the building frame (dead_reckoning output, e.g. "
+        "ORCA-corrected)")
     entrance: str | None = param(None, description="entrance id (default: the first one)")
     start_position: tuple[float, float, float] | None = param(
         None, unit="m", description="'pose': start position (x, y, z), building frame")
