@@ -178,8 +178,9 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
                                             b.floor(0).height, rng)
                 for j in np.flatnonzero(keep):
                     ranges.append(Range(t=float(tu[j]), agent=agent.id, device=f"{agent.id}/uwb",
-                                        a=f"{agent.id}/uwb", b=aid, range_m=round(float(meas[j]), 3),
-                                        sigma_m=cfg.sigma_m, method="uwb"))
+                                        a=f"{agent.id}/uwb", b=aid,
+                                        range_m=round(float(meas[j]), 3), sigma_m=cfg.sigma_m,
+                                        method="uwb"))
                     info.append({"t": float(tu[j]), "a": f"{agent.id}/uwb", "b": aid,
                                  "true_range_m": round(float(tr["true_range_m"][j]), 3),
                                  "obstructions": int(tr["obstructions"][j]),
@@ -198,7 +199,8 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
         fixed = []
         base = m.radio.base_station
         if base is not None and base in anchors:
-            fixed.append(Node(base, position=anchors[base]["position"], floor=anchors[base]["floor"]))
+            fixed.append(Node(base, position=anchors[base]["position"],
+                              floor=anchors[base]["floor"]))
         worn_nodes = {a.id: Node(a.id, agent=a.id, track=worn(a.id, RADIO_HEIGHT))
                       for a in radios + dispensers}
         drops = simulate_dispensers(model, fixed, [(worn_nodes[a.id], a.sensors.dispenser)
@@ -249,7 +251,7 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
         p = walker.foot_p
         kin = FootKinematics(t=t, position=np.repeat(p[None], n, 0), velocity=np.zeros((n, 3)),
                              acceleration=np.zeros((n, 3)),
-                             euler=np.repeat(np.array([[walker.foot_yaw, walker.foot_pitch, 0.0]]), n, 0),
+                             euler=np.repeat([[walker.foot_yaw, walker.foot_pitch, 0.0]], n, 0),
                              omega_body=np.zeros((n, 3)), stance=np.ones(n, bool),
                              stride=np.full(n, -1))
     else:

@@ -37,11 +37,15 @@ LEVEL, UP, DOWN = 0, 1, 2
 _H_PROFILE = {LEVEL: (5.0, 4.0), UP: (5.0, 3.0), DOWN: (3.0, 5.0)}
 _V_PROFILE = {LEVEL: (4.0, 4.0), UP: (3.0, 5.0), DOWN: (5.0, 3.0)}
 _CLEAR_PROFILE = {LEVEL: (3.0, 4.0), UP: (3.0, 4.0), DOWN: (4.0, 3.0)}
-_TOE_OFF = (3.0, 7.0)      # toe-down peak at s = 0.3
+_TOE_OFF = (3.0, 6.0)      # toe-down peak at s = 1/3
 _HEEL_STRIKE = (7.0, 3.0)  # toe-up peak at s = 0.7
 _ANGLE = (4.0, 4.0)        # stance-to-stance change of yaw/pitch/roll
 _ROLL = (4.0, 4.0)
 _SWAY = (3.0, 3.0)
+#: Heel-strike impact: the heel pad and sole compress and rebound in the last 8 % of
+#: the swing (about 50 ms at normal walking), a few-g spike before foot-flat.
+_IMPACT_START = 0.92
+_IMPACT = (3.0, 3.0)
 
 
 @dataclass
@@ -55,7 +59,8 @@ class StrideTable:
     toe-down pitch at toe-off; ``heel_strike`` (K,) [rad] toe-up pitch before contact;
     ``roll_amp`` (K,) [rad]; ``sway`` (K,) [m] lateral excursion to the left of travel;
     ``vstyle`` (K,) LEVEL/UP/DOWN; ``motion`` (K,) a label per swing (``walk``,
-    ``stairs_up``, ``stairs_down``, ``stairs_down_backward``, ``crawl``, ``posture``...).
+    ``stairs_up``, ``stairs_down``, ``stairs_down_backward``, ``crawl``, ``posture``...);
+    ``impact`` (K,) [m] sole compression at heel strike (0: a soft landing).
     """
 
     t0: np.ndarray
@@ -75,6 +80,7 @@ class StrideTable:
     sway: np.ndarray
     vstyle: np.ndarray
     motion: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=object))
+    impact: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.t0)
@@ -135,7 +141,8 @@ def body_rates(euler: np.ndarray, euler_rate: np.ndarray) -> np.ndarray:
 def euler_matrix(euler: np.ndarray) -> np.ndarray:
     """(N, 3, 3) ``C_b^n = Rz(yaw) Ry(pitch) Rx(roll)`` from ZYX Euler angles (N, 3)."""
     ps, th, ph = np.asarray(euler, float).T
-    cps, sps, cth, sth, cph, sph = np.cos(ps), np.sin(ps), np.cos(th), np.sin(th), np.cos(ph), np.sin(ph)
+    cps, sps, cth, sth = np.cos(ps), np.sin(ps), np.cos(th), np.sin(th)
+    cph, sph = np.cos(ph), np.sin(ph)
     r = np.empty((len(ps), 3, 3))
     r[:, 0, 0] = cps * cth
     r[:, 0, 1] = cps * sth * sph - sps * cph
@@ -200,6 +207,13 @@ def foot_kinematics(table: StrideTable, t: np.ndarray) -> FootKinematics:
     pos[:, 2] = p0[:, 2] + d[:, 2] * uv + h * cz
     vel[:, 2] = (d[:, 2] * uv1 + h * cz1) * inv
     acc[:, 2] = (d[:, 2] * uv2 + h * cz2) * inv2
+    if table.impact is not None:
+        w = 1.0 - _IMPACT_START
+        im, im1, im2 = bump((s - _IMPACT_START) / w, *_IMPACT)  # zero before the window
+        depth = table.impact[kc]
+        pos[:, 2] -= depth * im
+        vel[:, 2] -= depth * im1 / w * inv
+        acc[:, 2] -= depth * im2 / (w * w) * inv2
 
     dyaw = _wrap(table.yaw1 - table.yaw0)[kc]
     dpitch = (table.pitch1 - table.pitch0)[kc]

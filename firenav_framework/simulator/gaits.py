@@ -26,36 +26,40 @@ class Gait(BaseModel):
     speed: float = Field(1.3, gt=0, le=4.0, description="walking speed along the path [m/s]")
     stride: float = Field(1.4, gt=0.05, le=2.5,
                           description="stride length of one foot at this speed [m]")
-    swing_s: float = Field(0.70, gt=0.2, le=3.0,
-                           description="swing duration: heel-off to foot-flat [s]")
+    swing_s: float = Field(0.80, gt=0.2, le=3.0,
+                           description="heel-off to foot-flat [s]; the rest of the stride "
+                           "the foot is flat and still (about 0.3 s at normal walking)")
     clearance: float = Field(0.12, ge=0, le=0.5, description="foot (IMU) lift at mid-swing [m]")
-    toe_off_deg: float = Field(45.0, ge=0, le=80, description="toe-down pitch at toe-off")
-    heel_strike_deg: float = Field(20.0, ge=0, le=45, description="toe-up pitch before contact")
+    toe_off_deg: float = Field(60.0, ge=0, le=80, description="toe-down pitch at toe-off")
+    heel_strike_deg: float = Field(25.0, ge=0, le=45, description="toe-up pitch before contact")
     roll_deg: float = Field(4.0, ge=0, le=20, description="foot roll excursion in swing")
     sway: float = Field(0.02, ge=0, le=0.2, description="lateral foot excursion in swing [m]")
+    impact_mm: float = Field(6.0, ge=0, le=20, description="heel pad / sole compression at "
+                             "heel strike (a 3-6 g spike at normal walking) [mm]")
     posture: Posture = Field("stand", description="stand, or kneel (knee-walking / crawling)")
 
 
 #: Built-in gaits. ``stairs_*`` strides span two treads; their speed is unused.
 GAITS: dict[str, Gait] = {
     "walk": Gait(),
-    "brisk": Gait(speed=1.6, stride=1.6, swing_s=0.65, clearance=0.13, toe_off_deg=50),
+    "brisk": Gait(speed=1.6, stride=1.6, swing_s=0.75, clearance=0.13, toe_off_deg=55,
+                  impact_mm=8.0),
     "slow": Gait(speed=0.5, stride=0.85, swing_s=0.80, clearance=0.08, toe_off_deg=30,
-                 heel_strike_deg=12),
+                 heel_strike_deg=12, impact_mm=3.0),
     "search": Gait(speed=0.5, stride=0.8, swing_s=0.85, clearance=0.07, toe_off_deg=25,
-                   heel_strike_deg=10),
+                   heel_strike_deg=10, impact_mm=3.0),
     "trail_step": Gait(speed=0.3, stride=0.6, swing_s=0.9, clearance=0.05, toe_off_deg=15,
-                       heel_strike_deg=8, sway=0.01),
+                       heel_strike_deg=8, sway=0.01, impact_mm=2.0),
     "knee_walk": Gait(speed=0.2, stride=0.35, swing_s=1.0, clearance=0.03, toe_off_deg=5,
-                      heel_strike_deg=0, roll_deg=2, sway=0.01, posture="kneel"),
+                      heel_strike_deg=0, roll_deg=2, sway=0.01, impact_mm=0.0, posture="kneel"),
     "crawl": Gait(speed=0.25, stride=0.4, swing_s=1.0, clearance=0.04, toe_off_deg=6,
-                  heel_strike_deg=0, roll_deg=3, sway=0.01, posture="kneel"),
+                  heel_strike_deg=0, roll_deg=3, sway=0.01, impact_mm=0.0, posture="kneel"),
     "stairs_up": Gait(speed=0.5, stride=0.6, swing_s=0.75, clearance=0.06, toe_off_deg=25,
-                      heel_strike_deg=5),
+                      heel_strike_deg=5, impact_mm=3.0),
     "stairs_down": Gait(speed=0.5, stride=0.6, swing_s=0.70, clearance=0.04, toe_off_deg=10,
-                        heel_strike_deg=5),
+                        heel_strike_deg=5, impact_mm=6.0),
     "stairs_down_backward": Gait(speed=0.3, stride=0.6, swing_s=0.9, clearance=0.04,
-                                 toe_off_deg=20, heel_strike_deg=0),
+                                 toe_off_deg=20, heel_strike_deg=0, impact_mm=2.0),
 }
 
 #: Stance duration per stride on stairs [s] (foot flat on a tread).

@@ -2,9 +2,10 @@
 
 Per axis, the measured value is::
 
-    y = sat(quant( (I + M) x + b_on + b_gm(t) + b_rw(t) + k_T dT(t) [+ G f] + n ))
+    y = sat(quant( (I + M) x + k_nl x|x| + b_on + b_gm(t) + b_rw(t) + k_T dT(t) [+ G f] + n ))
 
-with ``M`` the scale-factor (diagonal) and cross-axis (off-diagonal) matrix, ``b_on``
+with ``M`` the scale-factor (diagonal) and cross-axis (off-diagonal) matrix, ``k_nl``
+the non-linearity, ``b_on``
 the turn-on bias, ``b_gm`` a first-order Gauss-Markov bias (bias instability),
 ``b_rw`` a bias random walk, ``k_T dT`` the thermal drift, ``G f`` the gyro's
 linear-acceleration sensitivity and ``n`` white noise of the stated density.
@@ -76,6 +77,7 @@ class SensorErrors:
     matrix: np.ndarray            # (3, 3)  I + scale factor + cross-axis
     thermal: np.ndarray           # (3,)  per kelvin
     g_sensitivity: np.ndarray     # (3, 3) gyro only (zeros for accel) [rad/s per m/s^2]
+    nonlinearity: np.ndarray      # (3,) quadratic coefficient [1 / unit]
 
     def as_dict(self) -> dict:
         return {k: np.asarray(v).round(9).tolist() for k, v in self.__dict__.items()}
@@ -89,12 +91,13 @@ def _si(spec: GyroSpec | AccelSpec) -> dict[str, float]:
                     thermal=spec.thermal_drift_dps_per_k * DEG, sf=spec.scale_factor_pct / 100,
                     mis=spec.misalignment_deg * DEG,
                     gsens=spec.g_sensitivity_dps_per_g * DEG / G0,
-                    res=spec.resolution_dps * DEG)
+                    res=spec.resolution_dps * DEG, nl=spec.nonlinearity_pct / 100)
     return dict(range=spec.range_g * G0, noise=spec.noise_density_ug_rthz * 1e-6 * G0,
                 bi=spec.bias_instability_ug * 1e-6 * G0, tau=spec.bias_tau_s,
                 rw=spec.random_walk_ug_rts * 1e-6 * G0, on=spec.turn_on_bias_mg * 1e-3 * G0,
                 thermal=spec.thermal_drift_mg_per_k * 1e-3 * G0, sf=spec.scale_factor_pct / 100,
-                mis=spec.misalignment_deg * DEG, gsens=0.0, res=spec.resolution_mg * 1e-3 * G0)
+                mis=spec.misalignment_deg * DEG, gsens=0.0, res=spec.resolution_mg * 1e-3 * G0,
+                nl=spec.nonlinearity_pct / 100)
 
 
 def draw_errors(spec: GyroSpec | AccelSpec, rng: np.random.Generator) -> SensorErrors:
@@ -105,7 +108,8 @@ def draw_errors(spec: GyroSpec | AccelSpec, rng: np.random.Generator) -> SensorE
     np.fill_diagonal(off, 0.0)
     return SensorErrors(turn_on_bias=rng.normal(0.0, p["on"], 3), matrix=matrix + off,
                         thermal=rng.normal(0.0, p["thermal"], 3),
-                        g_sensitivity=rng.normal(0.0, p["gsens"], (3, 3)))
+                        g_sensitivity=rng.normal(0.0, p["gsens"], (3, 3)),
+                        nonlinearity=rng.normal(0.0, p["nl"], 3) / p["range"])
 
 
 def gauss_markov(n: int, fs: float, sigma: float, tau: float, rng: np.random.Generator,
@@ -122,7 +126,8 @@ def gauss_markov(n: int, fs: float, sigma: float, tau: float, rng: np.random.Gen
 def corrupt(ideal: np.ndarray, spec: GyroSpec | AccelSpec, fs: float,
             rng: np.random.Generator, *, errors: SensorErrors | None = None,
             temperature_delta: np.ndarray | None = None,
-            specific_force: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, SensorErrors]:
+            specific_force: np.ndarray | None = None
+            ) -> tuple[np.ndarray, np.ndarray, SensorErrors]:
     """Measured (N, 3) readings from ideal ones, the per-sample saturation mask, the errors.
 
     ``temperature_delta`` (N,) [K] drives the thermal drift; ``specific_force`` (N, 3)
@@ -133,6 +138,8 @@ def corrupt(ideal: np.ndarray, spec: GyroSpec | AccelSpec, fs: float,
     if errors is None:
         errors = draw_errors(spec, rng)
     y = ideal @ errors.matrix.T + errors.turn_on_bias
+    if np.any(errors.nonlinearity):
+        y += errors.nonlinearity * ideal * np.abs(ideal)
     y += gauss_markov(n, fs, p["bi"] / GM_PEAK, p["tau"], rng)
     if p["rw"] > 0:
         y += np.cumsum(rng.normal(0.0, p["rw"] / np.sqrt(fs), (n, 3)), axis=0)

@@ -164,7 +164,8 @@ class Walker:
                             self.foot_pitch, pitch1, gait.clearance,
                             np.radians(gait.toe_off_deg) if toe_off is None else toe_off,
                             np.radians(gait.heel_strike_deg) if heel is None else heel,
-                            np.radians(gait.roll_deg), gait.sway, vstyle, motion))
+                            np.radians(gait.roll_deg), gait.sway, vstyle, motion,
+                            gait.impact_mm / 1000.0))
         self.foot_p = p1.copy()
         self.foot_yaw = yaw1
         self.foot_pitch = pitch1
@@ -192,7 +193,8 @@ class Walker:
         pitch = KNEEL_PITCH if posture == "kneel" else 0.0
         p1 = self.foot_p.copy()
         p1[2] = self.z_ground + self._imu_height(posture)
-        g = Gait(clearance=0.03, toe_off_deg=0, heel_strike_deg=0, roll_deg=2, sway=0.0)
+        g = Gait(clearance=0.03, toe_off_deg=0, heel_strike_deg=0, roll_deg=2, sway=0.0,
+                 impact_mm=0.0)
         self._swing(t0, t0 + POSTURE_CHANGE_S, p1, self.foot_yaw, pitch, g, LEVEL, "posture")
         self.posture = posture
         self._knot(self.t, "posture")
@@ -232,7 +234,9 @@ class Walker:
         dense = np.vstack([dense[:1], dense])
         facing = np.concatenate([[self.heading], facing])
         L = self._stride_length(gait)
-        kappa = L / MAX_TURN_PER_STRIDE
+        # Turning costs time as if it were distance: a turn of MAX_TURN_PER_STRIDE takes
+        # the nominal stride time of the gait, whoever walks it (partners stay together).
+        kappa = gait.stride / MAX_TURN_PER_STRIDE
         q = s + kappa * np.concatenate([[0.0], np.cumsum(np.abs(np.diff(facing)))])
         total = q[-1]
         if total < 0.05:
@@ -265,7 +269,8 @@ class Walker:
         self._footfalls(np.repeat(self.xy[None], n, 0), hi, np.full(n, self.z_ground),
                         np.full(n, 0.3), swing, np.full(n, LEVEL),
                         gait.model_copy(update={"clearance": 0.04, "toe_off_deg": 10.0,
-                                                "heel_strike_deg": 5.0}), "turn")
+                                                "heel_strike_deg": 5.0, "impact_mm": 1.0}),
+                        "turn")
 
     def _footfalls(self, xy: np.ndarray, heading: np.ndarray, z: np.ndarray,
                    stance: np.ndarray, swing: np.ndarray, vstyle: np.ndarray, gait: Gait,
@@ -340,7 +345,8 @@ class Walker:
                            clearance=np.array(cols[8], float), toe_off=np.array(cols[9], float),
                            heel_strike=np.array(cols[10], float),
                            roll_amp=np.array(cols[11], float), sway=np.array(cols[12], float),
-                           vstyle=np.array(cols[13], int), motion=np.array(cols[14], dtype=object))
+                           vstyle=np.array(cols[13], int), motion=np.array(cols[14], dtype=object),
+                           impact=np.array(cols[15], float))
 
     def body_track(self) -> BodyTrack:
         k = sorted(self.knots, key=lambda r: r[0])

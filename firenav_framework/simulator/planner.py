@@ -174,7 +174,7 @@ class Planner:
             try:
                 d = self.b.door(to.door)
             except KeyError as exc:
-                raise self.sc.problem(where + ("to", "door"), str(exc).strip("'\"")) from None
+                raise self.sc.problem(where + ("to", "door"), exc.args[0]) from None
             c, ax = np.asarray(d.center, float), np.asarray(d.axis, float)
             # Approach from the side the agent is on (same floor), go 0.8 m beyond.
             side = np.sign((st.xy - c) @ ax) if d.floor == st.floor else -1.0
@@ -216,7 +216,8 @@ class Planner:
             return
         floor, xy, extra = self._target(spec, st, where)
         if not 0 <= floor < len(self.b.floors):
-            raise self.sc.problem(where + ("to",), f"the building has floors 0..{len(self.b.floors) - 1}")
+            raise self.sc.problem(where + ("to",), "the building has floors "
+                                  f"0..{len(self.b.floors) - 1}")
         if not self.b.floor(floor).inside(xy[None])[0]:
             raise self.sc.problem(where + ("to",), f"target ({xy[0]:.2f}, {xy[1]:.2f}) is outside "
                                   f"the building on floor {floor}")

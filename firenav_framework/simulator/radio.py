@@ -174,7 +174,7 @@ class Drop:
 
 def simulate_dispensers(model: LinkModel, fixed: list[Node], dispensers: list[tuple[Node, object]],
                         t_end: float, rng: np.random.Generator, *, floor_z) -> list[Drop]:
-    """Decide when and where the dispensers drop breadcrumbs (sequential in time).
+    """Decide when and where the dispensers drop breadcrumbs.
 
     Each wearer hears the chain (base station and every breadcrumb dropped so far)
     once per packet period; it keeps the strongest RSSI of each period, averages the
@@ -182,58 +182,52 @@ def simulate_dispensers(model: LinkModel, fixed: list[Node], dispensers: list[tu
     below ``drop_below_dbm`` (breadcrumb paper, Sec. III: "deployed whenever a
     communication connection to the breadcrumb chain gets weak"), at least
     ``min_spacing_m`` after its previous drop and while it has nodes left.
+
+    A node's packets to every wearer are drawn once, for the whole run, when the node
+    appears; the sequential part only takes running maxima.
     """
     period = 1.0 / model.cfg.packet_rate_hz
     times = np.arange(period, t_end, period)
-    chain = list(fixed)
     drops: list[Drop] = []
-    state = {n.id: {"hist": [], "left": cfg.capacity, "last": None} for n, cfg in dispensers}
-    count = 0
     if not times.size or not dispensers:
         return drops
+    floor_rssi = model.cfg.sensitivity_dbm - 5.0
+    best = {n.id: np.full(len(times), -np.inf) for n, _ in dispensers}
+
+    def hear(node: Node) -> None:
+        for wearer, _ in dispensers:
+            r, ok = model.sample(times, node, wearer, rng)
+            heard = np.where(ok & (times >= node.t_on), r, -np.inf)
+            np.maximum(best[wearer.id], heard, out=best[wearer.id])
+
+    for node in fixed:
+        hear(node)
     tracks = {n.id: n.at(times) for n, _ in dispensers}
+    state = {n.id: {"left": cfg.capacity, "last": None, "since": 0} for n, cfg in dispensers}
+    count = 0
     for k, t in enumerate(times):
         for node, cfg in dispensers:
             st = state[node.id]
-            if st["left"] <= 0:
+            st["since"] += 1
+            if st["left"] <= 0 or st["since"] < cfg.average_packets:
                 continue
-            pos, fl, hd = (x[k:k + 1] for x in tracks[node.id])
-            best = -np.inf
-            for peer in chain:
-                if peer.t_on > t:
-                    continue
-                rssi, ok = model.sample(np.array([t]), peer, _Frozen(node.id, pos, fl, hd), rng)
-                if ok[0]:
-                    best = max(best, float(rssi[0]))
-            st["hist"] = (st["hist"] + [best])[-cfg.average_packets:]
-            if len(st["hist"]) < cfg.average_packets:
-                continue
-            avg = np.mean(np.maximum(st["hist"], model.cfg.sensitivity_dbm - 5.0))
+            window = best[node.id][k - cfg.average_packets + 1:k + 1]
+            avg = float(np.mean(np.maximum(window, floor_rssi)))
+            pos = tracks[node.id][0][k]
             moved = (np.inf if st["last"] is None
-                     else float(np.linalg.norm(pos[0, :2] - st["last"][:2])))
+                     else float(np.linalg.norm(pos[:2] - st["last"][:2])))
             if avg < cfg.drop_below_dbm and moved >= cfg.min_spacing_m:
                 count += 1
-                f = int(fl[0])
+                f = int(tracks[node.id][1][k])
                 jitter = rng.normal(0.0, 0.15, 2)
-                p = np.array([pos[0, 0] + jitter[0], pos[0, 1] + jitter[1], floor_z(f) + 0.05])
+                p = np.array([pos[0] + jitter[0], pos[1] + jitter[1], floor_z(f) + 0.05])
                 d = Drop(f"bc{count}", node.agent, float(t), p, f)
                 drops.append(d)
-                chain.append(Node(d.node_id, position=p, floor=f, t_on=float(t)))
+                hear(Node(d.node_id, position=p, floor=f, t_on=float(t)))
                 st["left"] -= 1
                 st["last"] = p
-                st["hist"] = []
+                st["since"] = 0
     return drops
-
-
-class _Frozen(Node):
-    """A worn node's state at one instant (used inside the dispenser loop)."""
-
-    def __init__(self, id: str, pos: np.ndarray, floor: np.ndarray, heading: np.ndarray):
-        super().__init__(id=id, position=pos[0], floor=int(floor[0]))
-        self._h = heading
-
-    def at(self, t):
-        return self.position[None], np.array([self.floor]), self._h
 
 
 def packet_readings(model: LinkModel, nodes: list[Node], t_end: float,

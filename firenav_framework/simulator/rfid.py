@@ -13,8 +13,9 @@ import numpy as np
 from .scenario import RfidConfig
 
 
-def rfid_detections(t: np.ndarray, reader_xyz: np.ndarray, tags: list[tuple[str, np.ndarray, float]],
-                    cfg: RfidConfig, rng: np.random.Generator) -> list[tuple[float, str, int, float]]:
+def rfid_detections(t: np.ndarray, reader_xyz: np.ndarray,
+                    tags: list[tuple[str, np.ndarray, float]], cfg: RfidConfig,
+                    rng: np.random.Generator) -> list[tuple[float, str, int, float]]:
     """Detections (t, tag id, reads, rssi dBm) for read attempts at ``t`` (N,).
 
     ``tags``: (tag id, position (3,), time it was attached).
@@ -37,6 +38,7 @@ def rfid_detections(t: np.ndarray, reader_xyz: np.ndarray, tags: list[tuple[str,
         last = np.zeros(len(w), int)
         np.maximum.at(last, np.searchsorted(w, window[ok]), idx)
         for j in range(len(w)):
-            out.append((float(t[last[j]]), tag_id, int(counts[j]), round(float(sums[j] / counts[j]), 1)))
+            out.append((float(t[last[j]]), tag_id, int(counts[j]),
+                        round(float(sums[j] / counts[j]), 1)))
     out.sort(key=lambda r: r[0])
     return out

@@ -57,10 +57,15 @@ class Magnetic(_Model):
 
 
 class Temperature(_Model):
-    """IMU temperature change from its calibration point (drives thermal drift)."""
+    """IMU temperature change after power-up (drives the grades' thermal drift).
 
-    change_k: float = Field(0.0, ge=-50, le=150, description="final change [K]")
-    tau_s: float = Field(300.0, gt=0, description="time constant of the change [s]")
+    Default: a foot IMU on a boot warms by 10 K with a 10-minute time constant (body
+    and walking heat, its own electronics); near a fire raise ``change_k``. The INS
+    can calibrate the bias at the start, not its later drift.
+    """
+
+    change_k: float = Field(10.0, ge=-50, le=150, description="final change [K]")
+    tau_s: float = Field(600.0, gt=0, description="time constant of the change [s]")
 
 
 class Environment(_Model):

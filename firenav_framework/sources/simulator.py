@@ -15,8 +15,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from ..components import Params, Source, param
-from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range, RssiReading,
-                        TagDeployment, TagDetection)
+from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range,
+                        RssiReading, TagDeployment, TagDetection)
 from ..yaml_locations import ConfigError
 
 PORTS: dict[str, type[Message]] = {

@@ -98,7 +98,8 @@ def test_thermal_drift_and_g_sensitivity_add_slow_and_dynamic_bias():
 
 def test_grades_resolve_and_unknown_names_list_the_known_ones():
     assert get_grade("industrial").name == "xsens_mti3"
-    assert get_grade("tactical").gyro.bias_instability_dph < get_grade("consumer").gyro.bias_instability_dph
+    tactical, consumer = get_grade("tactical").gyro, get_grade("consumer").gyro
+    assert tactical.bias_instability_dph < consumer.bias_instability_dph
     with pytest.raises(ValueError, match="known grades: .*xsens_mti3"):
         get_grade("mems9000")
 
