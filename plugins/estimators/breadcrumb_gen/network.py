@@ -1,0 +1,823 @@
+"""The relative measurement graph (RMG) as a generalized electrical network (GEN), §IV.
+
+Nodes are the base station and other anchors (known positions, "grounded"), breadcrumbs
+(static) and firefighter states (one node per time step in the extended graph, §IV-E).
+Edges are measurements; an edge's matrix resistance is its error covariance ``P``.
+
+The network keeps every edge in columnar tables so that the Kirchhoff matrix ``L`` and
+the vector ``b`` (eqs. 4, 7, 9; for ranges eqs. 20, 21) can be assembled in one
+vectorised pass, and it applies the paper's operations incrementally:
+
+* :meth:`add_node` - AddNode (eq. 13): a new row/column with no information yet;
+* :meth:`add_relative_position`, :meth:`add_range` - AddMeasurement(+) (eqs. 11/12,
+  18/19); ranges are linearised at the latest estimates;
+* :meth:`delete_node` - DeleteNode(+) by Schur complement (eq. 17): the node's edges are
+  replaced by one dense *marginal* edge over its neighbours (ranges frozen at their
+  linearisation point);
+* :meth:`relinearize` - re-evaluates eqs. 18-21 for ranges whose direction moved.
+
+Estimates and covariances (eqs. 4, 5) come from an :class:`IncrementalBlue` kept in step
+with every operation; :meth:`assemble` and :func:`batch_blue` give the batch solution of
+the same system for checks and benchmarks.
+
+A node becomes *localised* when a relative-position edge ties it to a localised node or
+an anchor; until then its edges wait (a range alone cannot place a node) and it has no
+estimate. Edges are applied in the order the network receives them.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Hashable, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+import scipy.sparse as sp
+
+from .batch import BatchBlue, KirchhoffSystem, SingularNetworkError, batch_blue, factorize
+from .incremental import IncrementalBlue
+from .measurements import range_blocks, range_direction, range_linearised
+
+__all__ = ["GeneralizedElectricalNetwork", "KirchhoffSystem", "batch_blue",
+           "SingularNetworkError"]
+
+_POS, _RNG, _MRG = 0, 1, 2          # edge kinds: relative position, range, marginal
+
+
+class _Columns:
+    """Growable struct-of-arrays (one row per edge)."""
+
+    def __init__(self, **cols: tuple[tuple[int, ...], type]) -> None:
+        self._spec = cols
+        self.n = 0
+        self._cap = 64
+        for name, (shape, dtype) in cols.items():
+            setattr(self, name, np.zeros((self._cap, *shape), dtype))
+
+    def append(self, **values) -> int:
+        if self.n == self._cap:
+            self._cap *= 2
+            for name in self._spec:
+                old = getattr(self, name)
+                new = np.zeros((self._cap, *old.shape[1:]), old.dtype)
+                new[:self.n] = old[:self.n]
+                setattr(self, name, new)
+        for name, value in values.items():
+            getattr(self, name)[self.n] = value
+        self.n += 1
+        return self.n - 1
+
+    def extend(self, m: int, **values) -> np.ndarray:
+        """Append ``m`` rows at once; returns their indices."""
+        while self.n + m > self._cap:
+            self._cap *= 2
+            for name in self._spec:
+                old = getattr(self, name)
+                new = np.zeros((self._cap, *old.shape[1:]), old.dtype)
+                new[:self.n] = old[:self.n]
+                setattr(self, name, new)
+        for name, value in values.items():
+            getattr(self, name)[self.n:self.n + m] = value
+        self.n += m
+        return np.arange(self.n - m, self.n)
+
+
+@dataclass
+class _Marginal:
+    """A dense edge over several nodes left by DeleteNode (eq. 17): ``L_NN += lam``,
+    ``b_N += eta``."""
+
+    nodes: np.ndarray
+    lam: np.ndarray
+    eta: np.ndarray
+    alive: bool = True
+    applied: bool = False
+
+
+class GeneralizedElectricalNetwork:
+    """Relative measurement graph with the GEN operations of §IV-C/D and exact estimates.
+
+    Nodes are named by any hashable key. ``dim`` is the position dimension (3 in the
+    paper). ``eps`` [m] is the constant in the range Jacobian ``h_ij`` (§IV-D).
+    ``relinearize_sigma`` is the linearisation error, in range standard deviations, above
+    which a range is re-linearised (:meth:`relinearize`). ``max_active_dims`` bounds the
+    dense active set of the incremental solver before the sparse system is refactorised;
+    ``hot_nodes`` recently touched nodes are re-activated after each refactorisation.
+    ``incremental=False`` gives the plain batch BLUE instead (everything re-solved on the
+    first query after a change), as a reference.
+    """
+
+    def __init__(self, dim: int = 3, *, eps: float = 1e-6, relinearize_sigma: float = 0.1,
+                 max_active_dims: int = 900, hot_nodes: int = 150,
+                 incremental: bool = True) -> None:
+        self.d = dim
+        self.eps = eps
+        self.relinearize_sigma = relinearize_sigma
+        self.hot_nodes = hot_nodes
+        self.solver: IncrementalBlue | BatchBlue = (
+            IncrementalBlue(dim, max_active_dims=max_active_dims) if incremental
+            else BatchBlue(dim, self.assemble))
+        self._ids: dict[Hashable, int] = {}
+        self._keys: list[Hashable] = []
+        self._anchor: dict[int, np.ndarray] = {}
+        self._alive: list[bool] = []
+        self._localised: list[bool] = []
+        d = dim
+        self._pos = _Columns(i=((), np.int64), j=((), np.int64), z=((d,), float),
+                             cov=((d, d), float), info=((d, d), float),
+                             alive=((), bool), applied=((), bool))
+        self._rng = _Columns(i=((), np.int64), j=((), np.int64), r=((), float),
+                             var=((), float), off=((d,), float), li=((d,), float),
+                             lj=((d,), float), alive=((), bool), applied=((), bool))
+        self._mrg: list[_Marginal] = []
+        self._edges: dict[int, list[tuple[int, int]]] = defaultdict(list)   # node -> edges
+        self._waiting: dict[int, list[tuple[int, int]]] = defaultdict(list)  # not localised
+        self._deferred: list[tuple[list[int], np.ndarray, np.ndarray, np.ndarray]] = []
+        self._batching = 0
+        self.dropped_edges = 0
+        self.relinearised = 0
+
+    # -- nodes ------------------------------------------------------------------------------
+    def _new_id(self, key: Hashable) -> int:
+        if key in self._ids:
+            raise ValueError(f"node {key!r} already exists")
+        nid = len(self._keys)
+        self._ids[key] = nid
+        self._keys.append(key)
+        self._alive.append(True)
+        self._localised.append(False)
+        return nid
+
+    def id_of(self, key: Hashable) -> int:
+        try:
+            nid = self._ids[key]
+        except KeyError:
+            raise KeyError(f"unknown node {key!r}") from None
+        if not self._alive[nid]:
+            raise KeyError(f"node {key!r} has been deleted")
+        return nid
+
+    def __contains__(self, key: Hashable) -> bool:
+        nid = self._ids.get(key)
+        return nid is not None and self._alive[nid]
+
+    def is_anchor(self, key: Hashable) -> bool:
+        return self.id_of(key) in self._anchor
+
+    def is_localised(self, key: Hashable) -> bool:
+        nid = self.id_of(key)
+        return nid in self._anchor or self._localised[nid]
+
+    @property
+    def nodes(self) -> list[Hashable]:
+        """Keys of all live nodes (anchors included), in creation order."""
+        return [k for k, a in zip(self._keys, self._alive) if a]
+
+    def add_anchor(self, key: Hashable, position: Sequence[float]) -> None:
+        """An anchor: a node whose position is known (the base station, §IV-A)."""
+        pos = np.asarray(position, float)
+        if pos.shape != (self.d,) or not np.all(np.isfinite(pos)):
+            raise ValueError(f"anchor {key!r} needs a finite position of {self.d} values, "
+                             f"got {position!r}")
+        nid = self._new_id(key)
+        self._anchor[nid] = pos
+        self._localised[nid] = True
+
+    def add_node(self, key: Hashable) -> None:
+        """AddNode (eq. 13): a node with an empty row and column in ``L`` and ``b``."""
+        self._new_id(key)
+
+    # -- measurements ---------------------------------------------------------------------
+    def add_relative_position(self, i: Hashable, j: Hashable, zeta: Sequence[float],
+                              cov: np.ndarray) -> int:
+        """AddMeasurement (eqs. 11, 12): ``zeta = x_i - x_j + e``, ``e ~ N(0, cov)``."""
+        a, b = self.id_of(i), self.id_of(j)
+        z = np.asarray(zeta, float)
+        cov = np.asarray(cov, float)
+        if a == b:
+            raise ValueError(f"a relative position needs two different nodes, got {i!r} twice")
+        if z.shape != (self.d,) or cov.shape != (self.d, self.d):
+            raise ValueError(f"relative position {i!r}-{j!r}: zeta must have shape ({self.d},) "
+                             f"and cov ({self.d}, {self.d}), got {z.shape} and {cov.shape}")
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(cov))):
+            raise ValueError(f"relative position {i!r}-{j!r} is not finite")
+        cov = 0.5 * (cov + cov.T)
+        try:
+            info = np.linalg.inv(np.linalg.cholesky(cov))
+        except np.linalg.LinAlgError:
+            raise ValueError(f"relative position {i!r}-{j!r}: covariance is not positive "
+                             "definite") from None
+        info = info.T @ info
+        if a in self._anchor and b in self._anchor:
+            raise ValueError(f"both {i!r} and {j!r} are anchors")
+        fid = self._pos.append(i=a, j=b, z=z, cov=cov, info=info, alive=True, applied=False)
+        self._edges[a].append((_POS, fid))
+        self._edges[b].append((_POS, fid))
+        self._place(_POS, fid)
+        return fid
+
+    def add_range(self, i: Hashable, j: Hashable, r: float, var: float,
+                  offset: Sequence[float] | None = None) -> int:
+        """AddMeasurement+ (eqs. 18, 19): ``r = ||x_i - x_j + offset|| + e``, ``e ~ N(0, var)``,
+        linearised at the latest estimates."""
+        return int(self.add_ranges([i], [j], [r], [var],
+                                   None if offset is None else [offset])[0])
+
+    def add_ranges(self, i: Sequence[Hashable], j: Sequence[Hashable], r: Sequence[float],
+                   var: Sequence[float], offset: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`add_range` for m ranges at once (one vectorised linearisation and one
+        rank-m update); returns their edge ids."""
+        a = np.array([self.id_of(k) for k in i], np.int64)
+        b = np.array([self.id_of(k) for k in j], np.int64)
+        r = np.asarray(r, float).reshape(-1)
+        var = np.asarray(var, float).reshape(-1)
+        m = len(a)
+        if not (len(b) == len(r) == len(var) == m):
+            raise ValueError(f"add_ranges: {m} first nodes, {len(b)} second nodes, {len(r)} "
+                             f"ranges and {len(var)} variances; they must agree")
+        off = np.zeros((m, self.d)) if offset is None else np.asarray(offset, float)
+        if off.shape != (m, self.d) or not np.all(np.isfinite(off)):
+            raise ValueError(f"range offsets must be finite with shape ({m}, {self.d})")
+        for k in range(m):
+            if a[k] == b[k]:
+                raise ValueError(f"a range needs two different nodes, got {i[k]!r} twice")
+            if not (np.isfinite(r[k]) and r[k] >= 0 and np.isfinite(var[k]) and var[k] > 0):
+                raise ValueError(f"range {i[k]!r}-{j[k]!r}: need r >= 0 and var > 0, got "
+                                 f"{r[k]}, {var[k]}")
+            if a[k] in self._anchor and b[k] in self._anchor:
+                raise ValueError(f"both {i[k]!r} and {j[k]!r} are anchors")
+        if m == 0:
+            return np.zeros(0, np.int64)
+        fids = self._rng.extend(m, i=a, j=b, r=r, var=var, off=off, alive=True, applied=False)
+        for k, f in enumerate(fids):
+            self._edges[int(a[k])].append((_RNG, int(f)))
+            self._edges[int(b[k])].append((_RNG, int(f)))
+        self._maybe_rebuild()
+        loc = np.asarray(self._localised)
+        ready = loc[a] & loc[b]
+        for k in np.flatnonzero(~ready):
+            for n in (int(a[k]), int(b[k])):
+                if not self._localised[n]:
+                    self._waiting[n].append((_RNG, int(fids[k])))
+        self._apply_ranges(fids[ready])
+        return fids
+
+    def _edge_nodes(self, kind: int, fid: int) -> list[int]:
+        if kind == _POS:
+            return [int(self._pos.i[fid]), int(self._pos.j[fid])]
+        if kind == _RNG:
+            return [int(self._rng.i[fid]), int(self._rng.j[fid])]
+        return [int(n) for n in self._mrg[fid].nodes]
+
+    def _place(self, kind: int, fid: int) -> None:
+        """Apply an edge now, localise a node through it, or let it wait.
+
+        Localising a node releases the edges that waited for it; those may localise
+        further nodes, so this works through a queue rather than recursively.
+        """
+        self._maybe_rebuild()
+        queue = [(kind, fid)]
+        while queue:
+            kind, fid = queue.pop(0)
+            if not self._is_live(kind, fid) or self._is_applied(kind, fid):
+                continue
+            nodes = self._edge_nodes(kind, fid)
+            loose = [n for n in nodes if not self._localised[n]]
+            if not loose:
+                self._apply(kind, fid)
+            elif kind == _POS and len(loose) == 1:
+                self._localise_through(fid, loose[0])
+                queue.extend(self._waiting.pop(loose[0], []))
+            else:
+                for n in loose:
+                    if (kind, fid) not in self._waiting[n]:
+                        self._waiting[n].append((kind, fid))
+
+    def _localise_through(self, fid: int, new: int) -> None:
+        """Border ``new`` into the estimate via relative-position edge ``fid``."""
+        pos = self._pos
+        i, j = int(pos.i[fid]), int(pos.j[fid])
+        other = j if new == i else i
+        z = pos.z[fid] if new == i else -pos.z[fid]       # x_new - x_other
+        self._flush()
+        if other in self._anchor:
+            self.solver.border(new, None, z, pos.cov[fid], anchor=self._anchor[other])
+        else:
+            self.solver.border(new, other, z, pos.cov[fid])
+        pos.applied[fid] = True
+        self._localised[new] = True
+
+    def _is_live(self, kind: int, fid: int) -> bool:
+        if kind == _POS:
+            return bool(self._pos.alive[fid])
+        if kind == _RNG:
+            return bool(self._rng.alive[fid])
+        return self._mrg[fid].alive
+
+    def _is_applied(self, kind: int, fid: int) -> bool:
+        if kind == _POS:
+            return bool(self._pos.applied[fid])
+        if kind == _RNG:
+            return bool(self._rng.applied[fid])
+        return self._mrg[fid].applied
+
+    def _apply(self, kind: int, fid: int) -> None:
+        """Hand an edge whose nodes are all localised to the solver (linearising ranges)."""
+        if kind == _RNG:
+            self._apply_ranges(np.array([fid]))
+            return
+        if kind == _POS:
+            self._pos.applied[fid] = True
+        else:
+            self._mrg[fid].applied = True
+        nodes, J, R, y = self._linear_form(kind, fid)
+        if nodes:
+            self._defer(nodes, J, R, y)
+
+    def _defer(self, nodes: list[int], J: np.ndarray, R: np.ndarray, y: np.ndarray) -> None:
+        self._deferred.append((nodes, J, R, y))
+        if not self._batching:
+            self._flush()
+
+    def _apply_ranges(self, fids: np.ndarray) -> None:
+        """Linearise ranges at the latest estimates (eqs. 18, 19) and hand them over."""
+        if len(fids) == 0:
+            return
+        rng, d = self._rng, self.d
+        ii, jj = rng.i[fids], rng.j[fids]
+        anchor = self._anchor_mask()
+        nodes = list(dict.fromkeys(int(n) for n in np.concatenate([ii, jj]) if not anchor[n]))
+        where = np.full(len(self._keys), -1, np.int64)
+        where[nodes] = np.arange(len(nodes))
+        est = self.solver.estimate(nodes) if nodes else np.zeros((0, d))
+        pos = np.zeros((len(self._keys), d))
+        pos[nodes] = est
+        for nid, p in self._anchor.items():
+            pos[nid] = p
+        xi, xj = pos[ii], pos[jj]
+        rng.li[fids], rng.lj[fids] = xi, xj
+        rng.applied[fids] = True
+        h, y = range_linearised(rng.r[fids], xi, xj, rng.off[fids], self.eps)
+        m = len(fids)
+        J = np.zeros((m, len(nodes) * d))
+        rows = np.arange(m)
+        for ends, sign in ((ii, 1.0), (jj, -1.0)):
+            free = ~anchor[ends]
+            cols = where[ends[free]][:, None] * d + np.arange(d)
+            J[rows[free][:, None], cols] = sign * h[free]
+            fixed = ~free                        # anchors fold into y (eq. 12)
+            y[fixed] -= sign * np.einsum("mk,mk->m", h[fixed], pos[ends[fixed]])
+        self._defer(nodes, J, np.diag(rng.var[fids]), y)
+
+    def _anchor_mask(self) -> np.ndarray:
+        mask = np.zeros(len(self._keys), bool)
+        if self._anchor:
+            mask[list(self._anchor)] = True
+        return mask
+
+    def _linear_form(self, kind: int, fid: int
+                     ) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
+        """The edge as ``y = J x_N + e``, ``e ~ (0, R)`` over its non-anchor nodes N, with
+        anchors folded into ``y`` (eq. 12)."""
+        d = self.d
+        if kind == _MRG:
+            m = self._mrg[fid]
+            lam, vec = np.linalg.eigh(0.5 * (m.lam + m.lam.T))
+            keep = lam > 1e-12 * max(lam.max(initial=0.0), 1e-300)
+            if not keep.any():
+                return [], np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0)
+            J = vec[:, keep].T
+            return ([int(n) for n in m.nodes], J, np.diag(1.0 / lam[keep]),
+                    (J @ m.eta) / lam[keep])
+        if kind == _POS:
+            t = self._pos
+            i, j = int(t.i[fid]), int(t.j[fid])
+            blocks = [np.eye(d), -np.eye(d)]
+            y, R = t.z[fid].copy(), t.cov[fid]
+        else:
+            t = self._rng
+            i, j = int(t.i[fid]), int(t.j[fid])
+            h, yv = range_linearised(t.r[fid:fid + 1], t.li[fid:fid + 1], t.lj[fid:fid + 1],
+                                     t.off[fid], self.eps)
+            blocks = [h, -h]
+            y, R = yv, np.array([[t.var[fid]]])
+        nodes, cols = [], []
+        for n, blk in zip((i, j), blocks):
+            if n in self._anchor:
+                y = y - blk @ self._anchor[n]
+            else:
+                nodes.append(n)
+                cols.append(blk)
+        return nodes, np.hstack(cols), R, y
+
+    # -- batching -----------------------------------------------------------------------------
+    @contextmanager
+    def batch(self) -> Iterator[None]:
+        """Apply the measurements added inside as one rank-r update (same result, faster).
+
+        Ranges added inside are linearised at the estimates from before the batch.
+        """
+        self._batching += 1
+        try:
+            yield
+        finally:
+            self._batching -= 1
+            if not self._batching:
+                self._flush()
+
+    def _flush(self) -> None:
+        if not self._deferred:
+            return
+        items, self._deferred = self._deferred, []
+        if len(items) == 1:
+            self.solver.update(*items[0])
+            return
+        nodes = list(dict.fromkeys(n for it in items for n in it[0]))
+        where = {n: k for k, n in enumerate(nodes)}
+        d = self.d
+        rows = sum(len(it[3]) for it in items)
+        J = np.zeros((rows, len(nodes) * d))
+        R = np.zeros((rows, rows))
+        y = np.zeros(rows)
+        r0 = 0
+        for ns, Jk, Rk, yk in items:
+            r1 = r0 + len(yk)
+            for c, n in enumerate(ns):
+                J[r0:r1, where[n] * d:(where[n] + 1) * d] = Jk[:, c * d:(c + 1) * d]
+            R[r0:r1, r0:r1] = Rk
+            y[r0:r1] = yk
+            r0 = r1
+        self.solver.update(nodes, J, R, y)
+
+    # -- deletion (marginalisation) ---------------------------------------------------------------
+    def delete_node(self, key: Hashable) -> None:
+        """DeleteNode(+) (eq. 17): marginalise the node out by a Schur complement.
+
+        The node's applied edges are replaced by one marginal edge over its non-anchor
+        neighbours; the estimates and covariances of the remaining nodes do not change
+        (eq. 15). Edges still waiting for a non-localised node are dropped
+        (:attr:`dropped_edges`): they tie this node to a node that has no estimate.
+        """
+        nid = self.id_of(key)
+        if nid in self._anchor:
+            raise ValueError(f"{key!r} is an anchor and cannot be deleted")
+        self._flush()
+        edges = [(k, f) for k, f in self._edges.pop(nid, []) if self._is_live(k, f)]
+        applied = [(k, f) for k, f in edges if self._is_applied(k, f)]
+        self.dropped_edges += len(edges) - len(applied)
+        for k, f in edges:
+            self._kill(k, f)
+        self._alive[nid] = False
+        self._waiting.pop(nid, None)
+        if not self._localised[nid]:
+            return
+        self.solver.hide(nid)
+        nbrs = list(dict.fromkeys(n for k, f in applied for n in self._edge_nodes(k, f)
+                                  if n != nid and n not in self._anchor))
+        if not nbrs:
+            return
+        allnodes = [nid, *nbrs]
+        where = {n: k for k, n in enumerate(allnodes)}
+        d = self.d
+        L = np.zeros((len(allnodes) * d,) * 2)
+        b = np.zeros(len(allnodes) * d)
+        for k, f in applied:
+            ns, J, R, y = self._linear_form(k, f)
+            idx = np.concatenate([np.arange(where[n] * d, (where[n] + 1) * d) for n in ns])
+            Rinv_J = np.linalg.solve(R, J)
+            L[np.ix_(idx, idx)] += J.T @ Rinv_J
+            b[idx] += Rinv_J.T @ y
+        L11, L1p, Lpp = L[:d, :d], L[:d, d:], L[d:, d:]
+        L11_inv = np.linalg.pinv(L11)
+        lam = Lpp - L1p.T @ L11_inv @ L1p
+        eta = b[d:] - L1p.T @ L11_inv @ b[:d]
+        fid = len(self._mrg)
+        self._mrg.append(_Marginal(np.asarray(nbrs, np.int64), 0.5 * (lam + lam.T), eta,
+                                   applied=True))
+        for n in nbrs:
+            self._edges[n].append((_MRG, fid))
+
+    def _kill(self, kind: int, fid: int) -> None:
+        if kind == _POS:
+            self._pos.alive[fid] = False
+        elif kind == _RNG:
+            self._rng.alive[fid] = False
+        else:
+            self._mrg[fid].alive = False
+        for n in self._edge_nodes(kind, fid):
+            lst = self._edges.get(n)
+            if lst is not None and (kind, fid) in lst:
+                lst.remove((kind, fid))
+
+    # -- relinearisation ------------------------------------------------------------------------------
+    def _range_candidates(self, mask_nodes: np.ndarray | None) -> np.ndarray:
+        rng = self._rng
+        n = rng.n
+        ok = rng.alive[:n] & rng.applied[:n]
+        if mask_nodes is not None:
+            ok &= mask_nodes[rng.i[:n]] & mask_nodes[rng.j[:n]]
+        return np.flatnonzero(ok)
+
+    def _positions(self, x_nodes: np.ndarray, ids: np.ndarray) -> np.ndarray:
+        """``x_nodes[ids]`` with anchors at their known positions."""
+        out = x_nodes[ids]
+        for nid, pos in self._anchor.items():
+            out[ids == nid] = pos
+        return out
+
+    def stale_ranges(self, tol_sigma: float) -> int:
+        """How many ranges between nodes whose estimates are at hand (active in the
+        solver, or anchors) are linearised so far from the current estimates that the
+        linearisation error exceeds ``tol_sigma`` of their standard deviation."""
+        self._flush()
+        nn = len(self._keys)
+        active = self.solver.active_mask(nn)
+        cand = self._range_candidates(active | self._anchor_mask())
+        if len(cand) == 0:
+            return 0
+        est = np.zeros((nn, self.d))
+        act = np.flatnonzero(active)
+        est[act] = self.solver.active_estimates(act)
+        rng = self._rng
+        xi, xj = self._positions(est, rng.i[cand]), self._positions(est, rng.j[cand])
+        return int(self._stale(cand, xi, xj, tol_sigma).sum())
+
+    def relinearize(self, tol_sigma: float | None = None) -> int:
+        """Re-linearise (eqs. 18-21) the ranges whose linearisation error exceeds
+        ``tol_sigma`` of their standard deviation (see :meth:`_stale`); returns how many
+        were stale among the active nodes.
+
+        The new linearisation is applied in the information form, by re-assembling
+        ``L`` and ``b`` (eqs. 20, 21) and refactorising: removing an old linearisation
+        from a covariance by a negative update is numerically unstable when the
+        direction changed a lot, adding information is not.
+        """
+        tol = self.relinearize_sigma if tol_sigma is None else tol_sigma
+        stale = self.stale_ranges(tol)
+        if stale:
+            self.rebuild(tol)
+        return stale
+
+    def _stale(self, fids: np.ndarray, xi: np.ndarray, xj: np.ndarray,
+               tol_sigma: float) -> np.ndarray:
+        """Ranges whose linearisation error at ``(xi, xj)`` exceeds ``tol_sigma`` sigmas.
+
+        The linearised range ``h_ij (x_i - x_j) = y`` is a plane tangent to the sphere
+        ``||x_i - x_j + o|| = r`` at the old direction; where the estimates now lie at an
+        angle ``theta`` from it the plane misses the sphere by ``r (1 - cos theta)``.
+        """
+        rng = self._rng
+        h_old, _ = range_direction(rng.li[fids], rng.lj[fids], rng.off[fids], self.eps)
+        h_new, _ = range_direction(xi, xj, rng.off[fids], self.eps)
+        n_old = np.linalg.norm(h_old, axis=1)
+        n_new = np.linalg.norm(h_new, axis=1)
+        cos = np.einsum("mk,mk->m", h_old, h_new) / np.maximum(n_old * n_new, 1e-300)
+        miss = rng.r[fids] * (1.0 - np.clip(cos, -1.0, 1.0))
+        return miss > tol_sigma * np.sqrt(rng.var[fids])
+
+    # -- assembly and refactorisation --------------------------------------------------------------
+    def assemble(self, positions: np.ndarray | None = None,
+                 tol_sigma: float | None = None) -> KirchhoffSystem:
+        """Kirchhoff matrix and ``b`` (eqs. 7, 9, 20, 21) over the live localised nodes.
+
+        With ``positions`` (estimates per node id) the ranges whose linearisation error
+        there exceeds ``tol_sigma`` sigmas are first re-linearised (0: all of them).
+        """
+        self._flush()
+        d = self.d
+        nn = len(self._keys)
+        unknown = np.array([a and loc and n not in self._anchor for n, (a, loc)
+                            in enumerate(zip(self._alive, self._localised))], bool)
+        nodes = np.flatnonzero(unknown)
+        col = np.full(nn, -1, np.int64)
+        col[nodes] = np.arange(len(nodes))
+        anchor_pos = np.zeros((nn, d))
+        is_anchor = np.zeros(nn, bool)
+        for nid, p in self._anchor.items():
+            anchor_pos[nid] = p
+            is_anchor[nid] = True
+        rows_i, rows_j, blocks = [], [], []
+        bvec = np.zeros(len(nodes) * d)
+
+        def add(i, j, blk, bi):
+            # blk (m, d, d) is the edge's Kirchhoff block, bi (m, d) its b-part at node i;
+            # L_ij = L_ji = -blk because J_j = -J_i; anchors are folded into b (eq. 12)
+            ua, uc = ~is_anchor[i], ~is_anchor[j]
+            for na, nc, s_b, ok in ((i, j, 1.0, ua), (j, i, -1.0, uc)):
+                rows_i.append(na[ok]); rows_j.append(na[ok]); blocks.append(blk[ok])
+                other_anchor = is_anchor[nc] & ok
+                contrib = s_b * bi
+                contrib[other_anchor] += np.einsum("mkl,ml->mk", blk[other_anchor],
+                                                   anchor_pos[nc[other_anchor]])
+                np.add.at(bvec.reshape(-1, d), col[na[ok]], contrib[ok])
+            both = ua & uc
+            rows_i.append(i[both]); rows_j.append(j[both]); blocks.append(-blk[both])
+            rows_i.append(j[both]); rows_j.append(i[both]); blocks.append(-blk[both])
+
+        pos = self._pos
+        sel = np.flatnonzero(pos.alive[:pos.n] & pos.applied[:pos.n])
+        if len(sel):
+            info = pos.info[sel]
+            add(pos.i[sel], pos.j[sel], info, np.einsum("mkl,ml->mk", info, pos.z[sel]))
+        rng = self._rng
+        sel = self._range_candidates(None)
+        if len(sel):
+            if positions is not None:
+                xi = self._positions(positions, rng.i[sel])
+                xj = self._positions(positions, rng.j[sel])
+                ok = np.all(np.isfinite(xi), 1) & np.all(np.isfinite(xj), 1)
+                turned = np.zeros(len(sel), bool)
+                turned[ok] = self._stale(sel[ok], xi[ok], xj[ok],
+                                         0.0 if tol_sigma is None else tol_sigma)
+                rng.li[sel[turned]] = xi[turned]
+                rng.lj[sel[turned]] = xj[turned]
+                self.relinearised += int(turned.sum())
+            h, y = range_linearised(rng.r[sel], rng.li[sel], rng.lj[sel], rng.off[sel],
+                                    self.eps)
+            blk, bi = range_blocks(h, y, 1.0 / rng.var[sel])
+            add(rng.i[sel], rng.j[sel], blk, bi)
+        for m in self._mrg:
+            if not (m.alive and m.applied):
+                continue
+            k = len(m.nodes)
+            blk = m.lam.reshape(k, d, k, d).transpose(0, 2, 1, 3)
+            ii, jj = np.meshgrid(m.nodes, m.nodes, indexing="ij")
+            rows_i.append(ii.ravel()); rows_j.append(jj.ravel())
+            blocks.append(blk.reshape(-1, d, d))
+            np.add.at(bvec.reshape(-1, d), col[m.nodes], m.eta.reshape(k, d))
+        if rows_i:
+            ri = col[np.concatenate(rows_i)]
+            rj = col[np.concatenate(rows_j)]
+            bl = np.concatenate(blocks)
+            r = (ri[:, None, None] * d + np.arange(d)[None, :, None]).repeat(d, 2)
+            c = (rj[:, None, None] * d + np.arange(d)[None, None, :]).repeat(d, 1)
+            L = sp.csc_matrix((bl.ravel(), (r.ravel(), c.ravel())),
+                              shape=(len(nodes) * d,) * 2)
+        else:
+            L = sp.csc_matrix((len(nodes) * d,) * 2)
+        L.sum_duplicates()
+        return KirchhoffSystem(L, bvec, nodes, d)
+
+    def _maybe_rebuild(self) -> None:
+        if self.solver.needs_rebuild():
+            self.rebuild()
+
+    def rebuild(self, tol_sigma: float | None = None) -> None:
+        """Refactorise: re-linearise stale ranges at the current estimates, assemble,
+        factorise."""
+        tol_sigma = self.relinearize_sigma if tol_sigma is None else tol_sigma
+        self._flush()
+        est = self.solver.full_estimate(len(self._keys))
+        hot = self.solver.recent_nodes(self._hot_count())
+        system = self.assemble(est, tol_sigma)
+        self.solver.rebuild(system.L, system.b, system.nodes, hot)
+
+    def cost(self, positions: np.ndarray) -> float:
+        """Weighted squared error of every live applied edge at ``positions`` (per node id):
+        the non-linear least-squares objective whose minimiser the batch solution is
+        (marginal edges up to a constant)."""
+        x = positions.copy()
+        for nid, p in self._anchor.items():
+            x[nid] = p
+        total = 0.0
+        pos = self._pos
+        sel = np.flatnonzero(pos.alive[:pos.n] & pos.applied[:pos.n])
+        if len(sel):
+            e = pos.z[sel] - (x[pos.i[sel]] - x[pos.j[sel]])
+            total += float(np.einsum("mk,mkl,ml->", e, pos.info[sel], e))
+        rng = self._rng
+        sel = self._range_candidates(None)
+        if len(sel):
+            diff = x[rng.i[sel]] - x[rng.j[sel]] + rng.off[sel]
+            e = rng.r[sel] - np.linalg.norm(diff, axis=1)
+            total += float(np.sum(e * e / rng.var[sel]))
+        for m in self._mrg:
+            if m.alive and m.applied:
+                v = x[m.nodes].ravel()
+                total += float(v @ m.lam @ v - 2.0 * m.eta @ v)
+        return total
+
+    def optimize(self, tol: float = 1e-9, max_iter: int = 100) -> int:
+        """Batch solution of the non-linear problem: Gauss-Newton on eqs. 20-21 with
+        Levenberg-Marquardt damping, every range re-linearised at each iterate, until
+        the estimates move less than ``tol`` [m]. Returns the iterations done; the
+        network's estimates are the optimum afterwards."""
+        n = len(self._keys)
+        x = self.solver.full_estimate(n)
+        cost = self.cost(np.nan_to_num(x))
+        lam, it = 0.0, 0
+        while it < max_iter:
+            it += 1
+            system = self.assemble(x, 0.0)
+            if len(system.nodes) == 0:
+                break
+            L, b, nodes = system.L, system.b, system.nodes
+            cur = x[nodes].ravel()
+            rhs = b - L @ cur
+            while True:
+                A = L + lam * sp.diags(L.diagonal()) if lam else L
+                step = factorize(A).solve(rhs)
+                trial = x.copy()
+                trial[nodes] = (cur + step).reshape(-1, self.d)
+                new_cost = self.cost(np.nan_to_num(trial))
+                if new_cost <= cost * (1 + 1e-12) or np.max(np.abs(step)) < tol:
+                    break
+                lam = max(10.0 * lam, 1e-4)
+                if lam > 1e8:
+                    break
+            x, cost = trial, new_cost
+            lam = lam / 10.0 if lam > 1e-4 else 0.0
+            if np.max(np.abs(step)) < tol:
+                break
+        system = self.assemble(x, 0.0)
+        self.solver.rebuild(system.L, system.b, system.nodes,
+                            self.solver.recent_nodes(self._hot_count()))
+        return it
+
+    def _hot_count(self) -> int:
+        """Nodes to re-activate after a refactorisation: at most half the active set."""
+        return min(self.hot_nodes, self.solver.max_active_dims // (2 * self.d))
+
+    @property
+    def node_count(self) -> int:
+        """Live nodes, anchors included."""
+        return sum(self._alive)
+
+    # -- results ------------------------------------------------------------------------------------
+    def estimate(self, key: Hashable) -> np.ndarray:
+        """Current BLUE estimate (eq. 4) of a node [m]."""
+        nid = self._checked(key)
+        if nid in self._anchor:
+            return self._anchor[nid].copy()
+        self._flush()
+        return self.solver.estimate([nid])[0].copy()
+
+    def covariance(self, key: Hashable) -> np.ndarray:
+        """Covariance block ``Sigma_ii`` (eq. 5) of a node [m^2]; zero for anchors."""
+        nid = self._checked(key)
+        if nid in self._anchor:
+            return np.zeros((self.d, self.d))
+        self._flush()
+        return self.solver.covariance([nid])
+
+    def joint_covariance(self, keys: Sequence[Hashable]) -> np.ndarray:
+        """Joint covariance of several non-anchor nodes (eq. 5)."""
+        ids = [self._checked(k) for k in keys]
+        if any(n in self._anchor for n in ids):
+            raise ValueError("joint_covariance takes non-anchor nodes only")
+        self._flush()
+        return self.solver.covariance(ids)
+
+    def estimates_of(self, keys: Sequence[Hashable]) -> np.ndarray:
+        """Current estimates (k, d) of several nodes at once (anchors at their position)."""
+        ids = [self._checked(k) for k in keys]
+        self._flush()
+        out = np.zeros((len(ids), self.d))
+        free = [k for k, n in enumerate(ids) if n not in self._anchor]
+        if free:
+            out[free] = self.solver.estimate([ids[k] for k in free])
+        for k, n in enumerate(ids):
+            if n in self._anchor:
+                out[k] = self._anchor[n]
+        return out
+
+    def covariances_of(self, keys: Sequence[Hashable]) -> np.ndarray:
+        """Covariance blocks (k, d, d) of several nodes at once (eq. 5; zero for anchors)."""
+        ids = [self._checked(k) for k in keys]
+        self._flush()
+        out = np.zeros((len(ids), self.d, self.d))
+        free = [k for k, n in enumerate(ids) if n not in self._anchor]
+        if free:
+            out[free] = self.solver.marginal_covariances([ids[k] for k in free])
+        return out
+
+    def estimates(self) -> dict[Hashable, np.ndarray]:
+        """Current estimates of every live localised node (one solve for all)."""
+        self._flush()
+        est = self.solver.full_estimate(len(self._keys))
+        out = {}
+        for nid, key in enumerate(self._keys):
+            if not self._alive[nid]:
+                continue
+            if nid in self._anchor:
+                out[key] = self._anchor[nid].copy()
+            elif self._localised[nid]:
+                out[key] = est[nid]
+        return out
+
+    def _checked(self, key: Hashable) -> int:
+        nid = self.id_of(key)
+        if not (nid in self._anchor or self._localised[nid]):
+            raise KeyError(f"node {key!r} has no estimate yet: no relative-position edge "
+                           "ties it to the base station or a localised node")
+        return nid
+
+    def edge_count(self) -> dict[str, int]:
+        """Live edges by kind (applied or waiting)."""
+        return {"relative_position": int(self._pos.alive[:self._pos.n].sum()),
+                "range": int(self._rng.alive[:self._rng.n].sum()),
+                "marginal": sum(m.alive for m in self._mrg)}
+
+    def key_of(self, nid: int) -> Hashable:
+        return self._keys[nid]
