@@ -245,8 +245,8 @@ class RfidReaderSensor(Sensor):
         self._flush(self._now)
 
     def _flush(self, now: float) -> None:
-        """Close and emit the passes whose last read is older than ``pass_gap``."""
-        self._now = max(self._now, now) if math.isfinite(now) else self._now
+        """Close and emit the passes whose last read is older than ``pass_gap`` at time
+        ``now`` [s] (infinity: all of them)."""
         done = [k for k, p in self._passes.items() if now - p.last > self.params.pass_gap]
         for p in sorted((self._passes.pop(k) for k in done), key=lambda p: p.peak_t):
             self._emit(p)

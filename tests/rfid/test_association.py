@@ -104,3 +104,21 @@ def test_the_deploying_agent_is_corrected_and_later_agents_use_the_tag(building)
     feed(ekf, odo2 + [read])
     last = [p for p in rec.on("pose") if p.agent == "ff2"][-1]
     assert np.hypot(*(last.position[:2] - w2.p[-1, :2])) < 0.6 * err_before
+
+
+def test_a_deployment_far_from_every_site_is_reported_with_a_gate(building):
+    """With associate_gate, a tag stuck in the middle of a room (no door within the
+    gate) is not associated: reported, and its later reads are unknown."""
+    w = walk([(13.5, 0.0), (13.5, 3.0)], stride=1.0)
+    dep = TagDeployment(t=float(w.t[-1]), agent="ff1", device="ff1/rfid", tag_id="LOST")
+    read = TagDetection(t=float(w.t[-1]) + 5.0, agent="ff1", device="ff1/rfid",
+                        tag_id="LOST", reads=2)
+    ekf, rec, stats = make_component(PdrEkf, dict(associate_gate=2.0, repeat_holdoff=0.0),
+                                     building=building)
+    ekf.start()
+    feed(ekf, odometry(w) + [dep, read])
+    assert ekf.tags.lookup("LOST") is None
+    counts = stats.counts["under_test"]
+    assert counts["tags_not_associated"] == 1 and counts["tags_unknown"] == 1
+    (d,) = [d for d in rec.on("diagnostics") if d.code == "tag_not_associated"]
+    assert "no tag site close enough" in d.text

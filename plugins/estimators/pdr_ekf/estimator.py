@@ -324,19 +324,18 @@ class PdrEkf(Estimator):
         pos, cov, since = self._position_at(st, msg.t)
         floor = self._floor(pos[2])
         known = self.tags.lookup(msg.tag_id)
+        why = "no tag site close enough"
         try:
             site = self.tags.associate(msg.tag_id, pos, floor,
                                        sigma=cov + np.eye(2) * p.tag_sigma ** 2,
                                        gate=p.associate_gate)
         except LookupError as exc:
-            site = None
-            self.ctx.diagnose(msg.t, "warning", "tag_not_associated", str(exc), agent=agent)
+            site, why = None, str(exc)
         if site is None:
             self.ctx.count("tags_not_associated")
             self.ctx.diagnose(msg.t, "warning", "tag_not_associated",
                               f"tag {msg.tag_id} deployed by {agent} near ({pos[0]:.1f}, "
-                              f"{pos[1]:.1f}) on floor {floor}: no tag site close enough",
-                              agent=agent)
+                              f"{pos[1]:.1f}) on floor {floor}: {why}", agent=agent)
             return
         if known is None:
             self.ctx.count("tags_associated")
