@@ -33,7 +33,8 @@ from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 
-from firenav_framework import Estimator, Odometry, Params, PerAgent, PoseEstimate, param
+from firenav_framework import (Estimator, GroundTruth, Odometry, Params, PerAgent, PoseEstimate,
+                               param)
 
 __all__ = ["Rigid2D", "OdometryStep", "StepCorrection", "OdometryCorrector", "DeadReckoning",
            "PLUGINS"]
@@ -162,10 +163,13 @@ class _AgentState:
     position: np.ndarray | None = None    # corrected building-frame position
     heading: float = 0.0                  # corrected building-frame heading
     cov: np.ndarray | None = None         # (4, 4) over (x, y, z, heading)
-    t: float | None = None                # time of the last step
+    t: float | None = None                # time of the last step output
+    last_t: float | None = None           # time of the last odometry accepted
     last_abs: np.ndarray | None = None    # the INS's own absolute position at t
     z0: float = 0.0                       # building-frame height of the INS origin [m]
+    yaw_offset: float = 0.0               # walking direction minus INS (IMU) yaw [rad]
     pending: list = field(default_factory=list)   # steps held back until aligned
+    truth: list = field(default_factory=list)     # recent (t, x, y, z, heading) until aligned
     warned: set = field(default_factory=set)
 
 
@@ -173,17 +177,19 @@ class DeadReckoning(Estimator):
     """INS odometry in the building frame (eq. 9 alignment) with optional map corrections."""
 
     name = "dead_reckoning"
-    inputs = (Odometry,)
+    inputs = (Odometry, GroundTruth)
     outputs = {"pose": PoseEstimate, "odometry": Odometry}
     provides = frozenset({"odometry_correction"})
 
     class Params(Params):
-        alignment: Literal["entrance", "pose", "first_segment", "none"] = param(
+        alignment: Literal["entrance", "pose", "first_segment", "truth", "none"] = param(
             "entrance", description="how the INS frame is placed in the building (eq. 9): "
             "'entrance' = the building entrance's position and inward heading; 'pose' = "
             "start_position/start_heading; 'first_segment' = position as 'pose' (or the "
             "entrance), heading from the first straight segment walked along a wall of "
-            "direction align_heading; 'none' = the INS frame is the building frame")
+            "direction align_heading; 'truth' = the pose of a GroundTruth input stream when "
+            "the INS starts (a surveyed start, for evaluation: the paper's GNSS fix at the "
+            "entrance); 'none' = the INS frame is the building frame")
         entrance: str | None = param(None, description="entrance id for 'entrance' "
                                      "alignment (default: the building's first entrance)")
         start_position: tuple[float, float, float] | None = param(
@@ -201,10 +207,21 @@ class DeadReckoning(Estimator):
         align_straightness: float = param(0.3, unit="m", gt=0, description="'first_segment': "
                                           "largest sideways deviation from the chord that "
                                           "still counts as straight")
+        imu_yaw_offset: float | None = param(
+            None, unit="rad", description="walking direction minus the INS heading (the IMU's "
+            "yaw on the boot plus the toe-out angle); null: estimated from the first "
+            "yaw_offset_steps straight steps")
+        yaw_offset_steps: int = param(6, ge=1, description="straight forward steps used to "
+                                      "estimate imu_yaw_offset before aligning")
         start_sigma: float = param(0.3, unit="m", gt=0, description="entry position "
                                    "uncertainty (1 sigma, each horizontal axis)")
         start_sigma_heading: float = param(0.05, unit="rad", gt=0, description="entry "
                                            "heading uncertainty (1 sigma)")
+        step_heading_sigma: float = param(0.005, unit="rad", ge=0, description="least heading "
+                                          "noise per step in the covariance (INS heading drift "
+                                          "its own covariance may leave out)")
+        step_length_sigma: float = param(0.01, ge=0, description="least position noise per "
+                                         "step and axis, as a fraction of the step length")
         max_bridge_speed: float = param(3.0, unit="m/s", gt=0, description="a gap in the "
                                         "odometry is bridged from the INS's absolute "
                                         "positions only if the implied speed is below this")
@@ -236,7 +253,10 @@ class DeadReckoning(Estimator):
         self.state.reset(agent)
 
     # -- input ----------------------------------------------------------------------
-    def handle(self, stream: str, msg: Odometry) -> None:
+    def handle(self, stream: str, msg: Odometry | GroundTruth) -> None:
+        if isinstance(msg, GroundTruth):
+            self._truth(msg)
+            return
         if not isinstance(msg, Odometry):
             return
         st = self.state[msg.agent]
@@ -245,12 +265,13 @@ class DeadReckoning(Estimator):
             self.ctx.count("bad_odometry")
             self._warn_once(st, msg, "bad_odometry", f"odometry step skipped: {problem}")
             return
-        if st.t is not None and msg.t <= st.t:
+        if st.last_t is not None and msg.t <= st.last_t:
             self.ctx.count("stale_odometry")
             return
         delta = np.asarray(msg.delta, float).copy()
-        if st.t is not None and msg.t_start > st.t + 1e-6:
+        if st.last_t is not None and msg.t_start > st.last_t + 1e-6:
             delta = self._bridge(st, msg, delta)
+        st.last_t = msg.t
         st.last_abs = np.asarray(msg.position, float).copy()
         if st.transform is None:
             st.pending.append((msg, delta))
@@ -265,15 +286,44 @@ class DeadReckoning(Estimator):
     def finish(self) -> None:
         for agent, st in self.state.items():
             if st.transform is None and st.pending:
-                self._align(agent, st, final=True)
+                if not self._align(agent, st, final=True):
+                    self.ctx.count("unaligned_steps", len(st.pending))
+                    self.ctx.diagnose(st.pending[-1][0].t, "error", "not_aligned",
+                                      f"{len(st.pending)} steps of {agent} never placed in the "
+                                      "building: no ground truth before the INS started",
+                                      agent=agent)
+                    continue
                 pending, st.pending = st.pending, []
                 for m, d in pending:
                     self._step(st, m, d)
 
+    def _truth(self, msg: GroundTruth) -> None:
+        """Keep the recent true poses of an agent not yet aligned ('truth' alignment)."""
+        if self.params.alignment != "truth":
+            return
+        st = self.state[msg.agent]
+        if st.transform is not None or not np.all(np.isfinite(msg.position[:2])):
+            return
+        st.truth.append((msg.t, *np.asarray(msg.position, float)[:3], msg.heading))
+        if st.pending:     # keep what the alignment window needs, from just before it
+            t0 = st.pending[0][0].t_start
+            while len(st.truth) > 2 and st.truth[1][0] <= t0:
+                del st.truth[0]
+        elif len(st.truth) > 64:
+            del st.truth[:32]
+        if st.pending and self._align(msg.agent, st, final=False):
+            pending, st.pending = st.pending, []
+            for m, d in pending:
+                self._step(st, m, d)
+
     # -- alignment (eq. 9) -------------------------------------------------------------
-    def _entry_pose(self, agent: str) -> tuple[np.ndarray, float | None]:
-        """Known entry position (3,) [m] and heading [rad] (None if unknown)."""
+    def _entry_pose(self, agent: str, t: float, final: bool
+                    ) -> tuple[np.ndarray, float | None] | None:
+        """Known entry position (3,) [m] and heading [rad] (None if unknown) at time ``t``
+        [s]; None when it is not known yet (waiting for ground truth)."""
         p = self.params
+        if p.alignment == "truth":
+            return _truth_at(self.state[agent].truth, t, final)
         if agent in p.start_poses:
             x, y, z, h = p.start_poses[agent]
             return np.array([x, y, z]), h
@@ -299,12 +349,22 @@ class DeadReckoning(Estimator):
         """Fix the transform from the entry pose (and the first segment); False: not yet."""
         p = self.params
         first = st.pending[0][0]
-        h_ins0 = wrap_angle(first.heading - first.dheading)   # INS heading at the start
+        offset = p.imu_yaw_offset
+        if offset is None and p.alignment != "none":
+            offset = _yaw_offset(st.pending, p.yaw_offset_steps, final)
+            if offset is None:
+                return False                     # not enough straight steps yet
+        st.yaw_offset = offset or 0.0
+        # walking direction at the start, in the INS frame
+        h_ins0 = wrap_angle(first.heading - first.dheading + st.yaw_offset)
         if p.alignment == "none":
             st.transform = Rigid2D()
             start = np.zeros(3)
         else:
-            start, heading = self._entry_pose(agent)
+            entry = self._entry_pose(agent, first.t_start, final)
+            if entry is None:
+                return False
+            start, heading = entry
             if p.alignment == "first_segment":
                 chord = _straight_chord(np.array([d for _, d in st.pending]),
                                         p.align_straightness)
@@ -344,7 +404,7 @@ class DeadReckoning(Estimator):
         prev = st.position.copy()
         st.ins = st.ins + delta
         proposed = np.array([*st.transform.apply(st.ins[:2]), st.z0 + st.ins[2]])
-        heading = wrap_angle(msg.heading + st.transform.angle)
+        heading = wrap_angle(msg.heading + st.yaw_offset + st.transform.angle)
         position, jump, dangle = proposed, False, 0.0
         for c in self.constraints:
             step = OdometryStep(agent=msg.agent, t=msg.t, dt=dt, prev=prev, proposed=position,
@@ -368,6 +428,11 @@ class DeadReckoning(Estimator):
         f = np.eye(4)
         f[0, 3], f[1, 3] = -move[1], move[0]
         q = g @ np.asarray(msg.cov, float) @ g.T
+        # floors for what INS covariances tend to leave out (heading drift, step length)
+        length2 = float(delta[:2] @ delta[:2])
+        q[3, 3] = max(q[3, 3], self.params.step_heading_sigma ** 2)
+        for i in (0, 1):
+            q[i, i] = max(q[i, i], self.params.step_length_sigma ** 2 * length2)
         if jump:
             q[:2, :2] += np.eye(2) * float(move[:2] @ move[:2])
         st.cov = f @ st.cov @ f.T + q
@@ -383,7 +448,7 @@ class DeadReckoning(Estimator):
 
     def _bridge(self, st: _AgentState, msg: Odometry, delta: np.ndarray) -> np.ndarray:
         """Missed odometry before this step: add the INS's own absolute displacement."""
-        gap = msg.t_start - st.t
+        gap = msg.t_start - st.last_t
         missing = np.asarray(msg.position, float) - delta - st.last_abs
         if np.all(np.isfinite(missing)) and np.hypot(*missing[:2]) <= \
                 self.params.max_bridge_speed * gap + 0.5:
@@ -419,6 +484,28 @@ def _odometry_problem(msg: Odometry) -> str:
     return ""
 
 
+def _yaw_offset(steps: list, n: int, final: bool) -> float | None:
+    """Circular mean of (step direction - INS heading at mid-step) over the first ``n``
+    straight forward steps (the previous step straight too: a stride that rounds a
+    corner lags the foot's heading): the IMU's yaw on the boot plus the toe-out. None:
+    not enough steps yet (0 at the end of input when there are none at all)."""
+    diffs, straight_before = [], False
+    for msg, delta in steps:
+        forward = (np.hypot(*delta[:2]) >= 0.3 and abs(msg.dheading) <= math.radians(5)
+                   and msg.motion in ("", "walk"))
+        if forward and straight_before:
+            diffs.append(math.atan2(delta[1], delta[0]) - (msg.heading - 0.5 * msg.dheading))
+        straight_before = forward or (np.hypot(*delta[:2]) < 0.05
+                                      and abs(msg.dheading) <= math.radians(5) and straight_before)
+        if len(diffs) == n:
+            break
+    if len(diffs) < n and not final:
+        return None
+    if not diffs:
+        return 0.0
+    return math.atan2(np.mean(np.sin(diffs)), np.mean(np.cos(diffs)))
+
+
 def _straight_chord(deltas: np.ndarray, tolerance: float) -> np.ndarray:
     """Chord (3,) of the longest straight prefix of a path given by its increments.
 
@@ -437,6 +524,17 @@ def _straight_chord(deltas: np.ndarray, tolerance: float) -> np.ndarray:
             break
         best = pts[k] - pts[0]
     return best
+
+
+def _truth_at(samples: list, t: float, final: bool) -> tuple[np.ndarray, float | None] | None:
+    """The true pose at time ``t`` from (t, x, y, z, heading) samples: the last one at or
+    before ``t`` (the first one if all are later), once a later sample shows that no closer
+    one will come (or at the end of input)."""
+    if not samples or (samples[-1][0] < t and not final):
+        return None
+    before = [s for s in samples if s[0] <= t]
+    _, x, y, z, h = before[-1] if before else samples[0]
+    return np.array([x, y, z]), (h if math.isfinite(h) else None)
 
 
 def _building(ctx):

@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from firenav_framework import Odometry
+from firenav_framework import GroundTruth, Odometry
 from firenav_framework.building import Building, Entrance, Floor, bundled_plan, load_building
 from firenav_framework.testing import check_plugin, make_component
 from firenav_plugins.estimators.dead_reckoning import DeadReckoning
@@ -86,16 +87,22 @@ def test_covariance_grows_with_distance_as_heading_error_propagates():
     path = np.column_stack([np.arange(11.0), np.zeros(11)])
     sp, sh = 0.3, 0.05
     rec, _ = run(dict(alignment="pose", start_position=(0.0, 0.0, 0.0), start_heading=0.0,
-                      start_sigma=sp, start_sigma_heading=sh), ins_steps(path, cov=np.zeros((4, 4))))
+                      start_sigma=sp, start_sigma_heading=sh, step_heading_sigma=0.0,
+                      step_length_sigma=0.0), ins_steps(path, cov=np.zeros((4, 4))))
     for k, p in enumerate(rec.on("pose"), 1):
         assert p.cov[1, 1] == pytest.approx(sp ** 2 + (k * sh) ** 2)
         assert p.cov[0, 0] == pytest.approx(sp ** 2)
         assert p.cov[3, 3] == pytest.approx(sh ** 2)
-    # per-step noise adds on top and accumulates
-    rec2, _ = run(dict(alignment="pose", start_position=(0.0, 0.0, 0.0), start_heading=0.0),
-                  ins_steps(path))
-    var = [p.cov[0, 0] for p in rec2.on("pose")]
-    assert all(b > a for a, b in zip(var, var[1:]))
+    # per-step noise adds on top and accumulates; the floors stand in for what the INS
+    # covariance leaves out (here: nothing reported at all)
+    rec2, _ = run(dict(alignment="pose", start_position=(0.0, 0.0, 0.0), start_heading=0.0,
+                       start_sigma=sp, start_sigma_heading=sh, step_heading_sigma=0.01,
+                       step_length_sigma=0.02), ins_steps(path, cov=np.zeros((4, 4))))
+    poses = rec2.on("pose")
+    for k, p in enumerate(poses, 1):
+        assert p.cov[3, 3] == pytest.approx(sh ** 2 + k * 0.01 ** 2)
+        assert p.cov[0, 0] == pytest.approx(sp ** 2 + k * 0.02 ** 2)
+    assert poses[-1].cov[1, 1] > sp ** 2 + (10 * sh) ** 2
 
 
 def test_gap_in_odometry_is_bridged_from_absolute_positions():
@@ -126,7 +133,7 @@ def test_missing_alignment_inputs_fail_clearly():
     with pytest.raises(ValueError, match="needs a building"):
         dr.start()
     b = Building("no_entrance", [Floor(index=0, z=0.0, height=3.0, walls=np.zeros((0, 2, 2)))])
-    dr, _, _ = make_component(DeadReckoning, {}, building=b)
+    dr, _, _ = make_component(DeadReckoning, {"imu_yaw_offset": 0.0}, building=b)
     dr.start()
     with pytest.raises(ValueError, match="no entrance"):
         dr.handle("odo", ins_steps(L_PATH)[0])
@@ -137,3 +144,47 @@ def test_conforms_to_the_plugin_contract():
                  entrances=[Entrance("e", 0, np.array([1.0, 2.0]), 0.5)])
     check_plugin(DeadReckoning, {}, sample_input=[("odo", m) for m in ins_steps(L_PATH)],
                  building=b)
+
+
+def test_toe_out_between_imu_yaw_and_walking_direction_is_estimated():
+    """A boot IMU reads 7 deg of toe-out (its yaw is not the walking direction): aligning
+    its yaw with the entry heading would turn the whole track by 7 deg."""
+    path = np.column_stack([5.0 + np.arange(8.0), np.full(8, 8.4)])
+    msgs = ins_steps(path)
+    toe = math.radians(7.0)
+    msgs = [replace(m, heading=m.heading + toe) for m in msgs]
+    params = dict(alignment="pose", start_position=(5.0, 8.4, 0.0), start_heading=0.0)
+    rec, _ = run(params, msgs)
+    np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-9)
+    assert rec.on("pose")[-1].heading == pytest.approx(0.0, abs=1e-9)   # walking direction
+    rec, _ = run({**params, "imu_yaw_offset": 0.0}, msgs)                # told: no offset
+    end = rec.on("pose")[-1].position
+    assert math.atan2(end[1] - 8.4, end[0] - 5.0) == pytest.approx(-toe)
+
+
+def test_truth_alignment_takes_the_true_pose_when_the_ins_starts():
+    """'truth': the true position and facing direction when the INS starts (what a
+    surveyed start or GNSS at the entrance gives); the IMU's toe-out is estimated."""
+    path = np.column_stack([2.0 + np.zeros(9), 3.0 + 1.1 * np.arange(9)])
+    path = np.vstack([path, path[-1] + [1.0, 0.0]])
+    msgs = [replace(m, heading=m.heading + 0.2) for m in ins_steps(path, t0=10.0)]
+    truth = [GroundTruth(t=t, agent="ff1", heading=math.pi / 2 if t <= 10.0 else 0.0,
+                         position=np.array([2.0, 3.0, 0.0]) if t <= 10.0 else np.full(3, 50.0))
+             for t in np.arange(0.0, 25.0, 0.25)]
+    stream = sorted([("truth", g) for g in truth] + [("odo", m) for m in msgs],
+                    key=lambda sm: sm[1].t)
+    dr, rec, stats = make_component(DeadReckoning, {"alignment": "truth"})
+    dr.start()
+    for name, m in stream:
+        dr.handle(name, m)
+    dr.finish()
+    np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-9)
+    # without any ground truth the steps cannot be placed: an error diagnostic, counted
+    dr, rec, stats = make_component(DeadReckoning, {"alignment": "truth"})
+    dr.start()
+    for m in msgs:
+        dr.handle("odo", m)
+    dr.finish()
+    assert rec.on("pose") == []
+    assert [d.code for d in rec.on("diagnostics")] == ["not_aligned"]
+    assert stats.counts["under_test"]["unaligned_steps"] == len(msgs)

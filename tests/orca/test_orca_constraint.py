@@ -31,7 +31,8 @@ class Walker:
 
     def __init__(self, b: Building, start, heading, orca: dict | None = None,
                  agent: str = "ff1", chain=None):
-        params = dict(alignment="pose", start_position=(*start, 0.0), start_heading=heading)
+        params = dict(alignment="pose", start_position=(*start, 0.0), start_heading=heading,
+                      imu_yaw_offset=0.0)
         self.dr, self.rec, self.stats = chain or make_component(DeadReckoning, params,
                                                                 building=b)
         if chain is None:
@@ -135,7 +136,8 @@ def test_range_that_fits_no_door_keeps_the_agent_out():
     w.step(0.0, 0.0)
     w.range("uwb_entrance", 30.0)
     end = w.step(0.0, -1.3)
-    assert w.counts() == {"orca_door_range_misfit": 1, "orca_blocked": 1}
+    counts = w.counts()
+    assert counts["orca_door_range_misfit"] == 1 and "orca_door" not in counts
     assert end[1] >= 0.25 - 1e-9
 
 
@@ -155,7 +157,8 @@ def test_team_members_avoid_each_other():
     b = building([[[-50.0, -20.0], [50.0, -20.0]]])
     for avoid, expect_clear in ((False, False), (True, True)):
         params = dict(alignment="pose", start_poses={"ff1": (-5.0, 0.0, 0.0, 0.0),
-                                                     "ff2": (5.0, 0.0, 0.0, math.pi)})
+                                                     "ff2": (5.0, 0.0, 0.0, math.pi)},
+                      imu_yaw_offset=0.0)
         dr, rec, stats = make_component(DeadReckoning, params, building=b)
         orca, _, _ = make_component(OrcaConstraint, {"avoid_team": avoid}, building=b)
         orca.start()
@@ -170,3 +173,36 @@ def test_team_members_avoid_each_other():
             pc = c.step(-1.0, 0.0, dt=1.0)
             gaps.append(np.hypot(*(pa - pc)[:2]))
         assert (min(gaps) >= 2 * 0.25 - 1e-6) == expect_clear
+
+
+def test_a_shuffle_while_standing_never_takes_a_door():
+    """Standing at a check point next to a wall, the foot jitters 3 cm towards it: too
+    short a move to say anything about heading or doors."""
+    b = building(DOORS_WALL, DOORS, [ANCHOR])
+    w = Walker(b, (1.8, 0.25), -math.pi / 2, orca={})
+    for _ in range(3):
+        end = w.step(0.0, -0.03)
+    assert "orca_door" not in w.counts() and "orca_rotation" not in w.counts()
+    assert end[1] >= 0.25 - 1e-6
+
+
+def test_a_stride_rounding_a_corner_is_a_turn_even_if_the_heading_settled():
+    """The foot's heading already points along the wall, but the stride that rounds the
+    corner still runs 10 deg into it: a position offset, not a heading error."""
+    a = math.radians(10)
+    w = Walker(building(WALL), (0.0, 1.25), -math.pi / 2, orca={})
+    w.step(0.0, -1.0)                                        # down towards the wall
+    w.step(1.3 * math.cos(a), -1.3 * math.sin(a), turn=0.0)  # course changes by 80 deg
+    assert w.counts() == {"orca_turn_slide": 1}
+
+
+@pytest.mark.parametrize("source, stored", [("step", True), ("heading", False)])
+def test_rotation_from_the_heading_ignores_a_swaying_stride(source, stored):
+    """Walking parallel to the wall (INS heading along it), one stride sways 5 deg into
+    it: 'step' stores that as a heading error (the paper), 'heading' does not."""
+    a = math.radians(5)
+    w = Walker(building(WALL), (0.0, 0.25), 0.0, orca={"rotation_from": source})
+    w.step(1.3, 0.0)
+    w.step(1.3, 0.0)
+    w.step(1.3 * math.cos(a), -1.3 * math.sin(a))
+    assert ("orca_rotation" in w.counts()) == stored

@@ -21,12 +21,24 @@ which the step meets the wall it touches first:
 
 For a sliding contact theta equals that angle; near a wall's end (a door jamb) ORCA can
 slip past the end with a small rotation although the step ran square into the wall,
-which is why the rule is read on the angle of the step to the wall. Two guards, not in
-the paper, keep position errors from being taken for heading errors (they can be
-switched off): no rotation is stored during a turn (``turn_guard``), where the step
-direction is not the walking direction and a lateral offset looks like a heading error
-(the lateral offset is absorbed by a translation instead); and a door is only taken if
-its expected range fits the measured one within ``door_range_gate``.
+which is why the rule is read on the angle of the step to the wall.
+
+Three guards, not in the paper, keep position errors from being taken for heading
+errors or doors (each can be switched off; without them the rules make the simulated
+corridor tests worse than the INS alone, see benchmarks/bench_orca_corridor.py):
+
+* ``turn_guard``: no rotation is stored during a turn (a heading change or a change of
+  step direction over the last two steps), where a stride rounding a corner runs into
+  the wall although the heading is fine; the lateral offset is absorbed by a
+  translation instead;
+* ``door_range_gate``: a door is only taken if its expected range to the anchor(s)
+  fits the measured one (the nearest door at the end of a corridor is often no door
+  the firefighter went through);
+* ``min_step``: a move shorter than this (a shuffle while standing at a check point)
+  is only held at the wall; its direction means nothing.
+
+``rotation_from: heading`` stores the rotation of the INS velocity along its heading
+rather than of the step (which sways from stride to stride).
 
 Ranges come from the constraint's own input (``Range`` messages, e.g. the ``uwb``
 sensor's ``range`` port); the anchors' positions from the building.
@@ -36,6 +48,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -101,7 +114,8 @@ class _Agent:
     end: np.ndarray | None = None           # ... and end (3,) [m]
     dt: float = 1.0                         # ... its duration [s]
     t: float | None = None                  # ... and time [s]
-    last_dheading: float = 0.0              # INS heading change of the previous step [rad]
+    turns: tuple[float, float] = (0.0, 0.0)   # turn of the previous two steps [rad]
+    course: float | None = None             # INS-frame direction of the last real step [rad]
 
 
 class OrcaConstraint(Constraint):
@@ -140,6 +154,13 @@ class OrcaConstraint(Constraint):
         turn_guard: float | None = param(math.radians(30.0), unit="rad", gt=0, description=
                                          "no rotation is stored while the INS heading turned "
                                          "more than this over the last two steps (null: off)")
+        rotation_from: Literal["step", "heading"] = param(
+            "step", description="velocity whose ORCA rotation is stored: 'step' = the step "
+            "from the agent to the INS position (eq. 7, Figure 4); 'heading' = the same speed "
+            "along the INS heading, which ignores the sway of single strides")
+        min_step: float = param(0.2, unit="m", ge=0, description="a shorter move (a shuffle "
+                                "while standing) is only held at the wall: its direction "
+                                "says nothing about heading or doors")
         range_max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this "
                                      "are not used to choose a door")
         tag_height: float = param(1.0, unit="m", description="height of the UWB tag above the "
@@ -190,9 +211,7 @@ class OrcaConstraint(Constraint):
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         p = self.params
         me = self.agents[step.agent]
-        turning = (p.turn_guard is not None and abs(step.odometry.dheading)
-                   + abs(me.last_dheading) > p.turn_guard)
-        me.last_dheading = step.odometry.dheading
+        turning = self._turning(me, step)
         pos, target = step.prev[:2], step.proposed[:2]
         floor_idx = bisect.bisect_right(self._level_mids, step.prev[2])
         if math.hypot(target[0] - pos[0], target[1] - pos[1]) > p.max_speed * step.dt:
@@ -209,6 +228,8 @@ class OrcaConstraint(Constraint):
         angle = theta if wall < 0 else approach_angle(move, grid.segs[wall])
         kind = classify_rotation(angle, p.min_rotation, p.max_rotation, p.door_angle,
                                  p.door_tolerance)
+        if math.hypot(move[0], move[1]) < p.min_step:
+            kind = "blocked"
         if kind == "door":
             fix = self._door(me, step, floor_idx, grid, pos, move, wall) if wall >= 0 else None
             if fix is not None:
@@ -230,11 +251,17 @@ class OrcaConstraint(Constraint):
                 position=_with_z(pos + step.dt * v_orca, step), event="orca_blocked"))
         c, s = math.cos(theta), math.sin(theta)
         moved = np.array([pos[0] + c * move[0] - s * move[1], pos[1] + s * move[0] + c * move[1]])
-        if abs(theta) < p.min_rotation:
+        stored = theta
+        if p.rotation_from == "heading":
+            # the same ORCA set, for the INS velocity along its heading instead of the step
+            speed = math.hypot(move[0], move[1]) / step.dt
+            stored = grid.rotation_for(np.array([speed * math.cos(step.heading),
+                                                 speed * math.sin(step.heading)]))
+        if not abs(stored) >= p.min_rotation or abs(stored) > p.max_rotation:
             return self._record(me, step, StepCorrection(position=_with_z(moved, step),
                                                          event="orca_small"))
         return self._record(me, step, StepCorrection(
-            position=_with_z(moved, step), update=Rigid2D.rotation_about(theta, pos),
+            position=_with_z(moved, step), update=Rigid2D.rotation_about(stored, pos),
             event="orca_rotation"))
 
     def _door(self, me: _Agent, step: OdometryStep, floor_idx: int, grid: WallGrid,
@@ -265,6 +292,21 @@ class OrcaConstraint(Constraint):
         return StepCorrection(position=_with_z(end, step),
                               update=Rigid2D.translation(door - crossing),
                               jump=True, event="orca_door")
+
+    def _turning(self, me: _Agent, step: OdometryStep) -> bool:
+        """Did the walker turn more than ``turn_guard`` over this and the previous step?
+
+        A turn shows in the INS heading change and in the change of direction between
+        steps (a stride that rounds a corner lags the foot's heading)."""
+        d = step.odometry.delta
+        turn = abs(step.odometry.dheading)
+        if math.hypot(d[0], d[1]) >= self.params.min_step:
+            course = math.atan2(d[1], d[0])
+            if me.course is not None:
+                turn = max(turn, abs(math.remainder(course - me.course, 2 * math.pi)))
+            me.course = course
+        me.turns = (me.turns[1], turn)
+        return self.params.turn_guard is not None and sum(me.turns) > self.params.turn_guard
 
     # -- team -------------------------------------------------------------------------
     def _team(self, step: OdometryStep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

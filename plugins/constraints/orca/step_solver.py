@@ -125,18 +125,18 @@ def gather_walls(px: float, py: float, reach: float, segs, start, items, ox, oy,
 @njit(cache=True)
 def orca_step(pos, target, dt, radius, tau, tau_agents, segs, start, items, ox, oy, h, nx, ny,
               stamp, tag, cand, dist, others_pos, others_vel, others_radius,
-              pts, dirs, out_vel) -> tuple[int, float, int, float]:
+              pts, dirs, out_vel) -> tuple[int, float, int, float, int]:
     """Collision check of the move ``pos`` -> ``target`` (2,) [m] over ``dt`` [s], and ORCA.
 
-    Returns ``(code, theta, wall, frac)``. ``code`` is FREE (the disc of ``radius`` [m] sweeps past
+    Returns ``(code, theta, wall, frac, n_lines)``. ``code`` is FREE (the disc of ``radius`` [m] sweeps past
     every wall and agent; ``out_vel`` is the INS velocity), AVOIDED (``out_vel`` is the
     ORCA velocity of eq. 6: the permitted velocity closest to the INS velocity, no
     faster) or LEAST_VIOLATION (no velocity meets every constraint, e.g. agents
     overlapping; the least-violating one). ``theta`` [rad] is the smallest rotation of
     the INS velocity, at its speed, into the permitted set (Figure 4; NaN when none
     exists, 0 when FREE). ``wall`` is the wall the disc touches first (-1 when only an
-    agent is in the way) and ``frac`` the fraction of the move at that contact. The
-    obstacle time horizon is ``max(tau, dt)`` so that a step
+    agent is in the way), ``frac`` the fraction of the move at that contact and
+    ``n_lines`` the number of ORCA lines left in ``pts``/``dirs``. The obstacle time horizon is ``max(tau, dt)`` so that a step
     can never tunnel through a wall.
     """
     vx, vy = (target[0] - pos[0]) / dt, (target[1] - pos[1]) / dt
@@ -164,7 +164,7 @@ def orca_step(pos, target, dt, radius, tau, tau_agents, segs, start, items, ox, 
                 hit = True
                 break
     if not hit or speed == 0.0:
-        return FREE, 0.0, -1, math.nan
+        return FREE, 0.0, -1, math.nan, 0
     vel = np.empty(2)
     vel[0], vel[1] = vx, vy
     n_obst = wall_orca_lines(pos, vel, radius, tau_o, segs, cand[:n], pts, dirs)
@@ -173,7 +173,7 @@ def orca_step(pos, target, dt, radius, tau, tau_agents, segs, start, items, ox, 
     theta = smallest_rotation(vel, pts, dirs, n_lines)
     code = AVOIDED if solve_velocity(pts, dirs, n_lines, n_obst, speed, vel, out_vel) \
         else LEAST_VIOLATION
-    return code, theta, wall, first
+    return code, theta, wall, first, n_lines
 
 
 class WallGrid:
@@ -195,6 +195,7 @@ class WallGrid:
         self.pts = np.empty((n + max_agents + 1, 2))
         self.dirs = np.empty((n + max_agents + 1, 2))
         self.vel = np.empty(2)
+        self.n_lines = 0
 
     def step(self, pos: np.ndarray, target: np.ndarray, dt: float, radius: float, tau: float,
              tau_agents: float, others_pos: np.ndarray, others_vel: np.ndarray,
@@ -203,11 +204,16 @@ class WallGrid:
         first wall touched, fraction of the move at that contact)."""
         self.tag += 1
         ox, oy, h, nx, ny = self.grid
-        code, theta, wall, frac = orca_step(pos, target, dt, radius, tau, tau_agents, self.segs, self.start,
+        code, theta, wall, frac, self.n_lines = orca_step(pos, target, dt, radius, tau, tau_agents, self.segs, self.start,
                          self.items, ox, oy, h, nx, ny, self.stamp, self.tag, self.cand,
                          self.dist, others_pos, others_vel, others_radius, self.pts,
                          self.dirs, self.vel)
         return code, self.vel.copy(), theta, wall, frac
+
+    def rotation_for(self, vel: np.ndarray) -> float:
+        """Smallest rotation [rad] of ``vel`` (2,) [m/s] into the ORCA set of the last
+        :meth:`step` (NaN when none; 0 when that step was free)."""
+        return smallest_rotation(vel, self.pts, self.dirs, self.n_lines)
 
     def blocked(self, p0: np.ndarray, p1: np.ndarray, radius: float) -> bool:
         """Does a disc of ``radius`` [m] moving p0 -> p1 (2,) touch a wall?"""

@@ -1,0 +1,43 @@
+"""The bundled ORCA pipeline end to end on the simulator's Test III (through a room)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from firenav_framework.pipeline import load_pipeline
+from firenav_framework.runner import run_pipeline
+
+
+@pytest.fixture(scope="module")
+def run(repo):
+    spec = load_pipeline(repo / "pipelines" / "orca-map-matching.yaml",
+                         ["sources.sim.scenario=orca_test3", "sources.sim.seed=0"])
+    return run_pipeline(spec)
+
+
+def test_every_ins_step_is_placed_without_faults(run):
+    assert run.faults == []
+    n_steps = run.stats.messages["ins.odometry"]
+    assert n_steps > 50
+    assert len(run.tracks["mm.pose"]["ff1"]) == n_steps
+    assert run.stats.messages["uwb.range"] > 0
+    assert "ranges_unknown_anchor" not in run.stats.counts.get("orca", {})
+
+
+def test_corrected_track_only_passes_walls_where_a_reset_put_it(run):
+    """ORCA keeps the agent out of walls; only the wrong-compartment reset may jump one."""
+    track = run.tracks["mm.pose"]["ff1"]
+    floor = run.building.floors[0]
+    crossings = int(floor.crosses_wall(track.position[:-1, :2], track.position[1:, :2]).sum())
+    resets = run.stats.counts.get("mm", {}).get("orca_reset", 0)
+    assert crossings <= resets
+
+
+def test_covariance_grows_with_the_walk(run):
+    """Heading uncertainty makes the position uncertainty grow with the distance from the
+    start (it may shrink a little walking back towards it: the two are correlated)."""
+    track = run.tracks["mm.pose"]["ff1"]
+    trace = track.cov[:, 0, 0] + track.cov[:, 1, 1]
+    far = np.argmax(np.hypot(*(track.position[:, :2] - track.position[0, :2]).T))
+    assert trace[far] > 4 * trace[0]
+    assert np.all(np.diff(track.cov[:, 3, 3]) > 0)
