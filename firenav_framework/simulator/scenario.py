@@ -25,7 +25,6 @@ Every problem is reported as ``file:line:col: where: message`` through
 """
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -373,12 +372,6 @@ class Scenario:
     def problem(self, where: tuple, message: str) -> ConfigError:
         """A ConfigError pointing at ``where`` in the scenario file."""
         return ConfigError([self.document.problem(where, message)])
-
-    def with_updates(self, **top: Any) -> "Scenario":
-        """A copy with top-level fields replaced (e.g. ``duration_s``), re-validated."""
-        doc = copy.deepcopy(self.document)
-        doc.data.update(top)
-        return _validate(doc, self.base_dir)
 
 
 def _locate_loc(doc: LocatedDocument, base: tuple, loc: tuple) -> tuple:

@@ -50,7 +50,7 @@ class SimulatorSource(Source):
     input_param = "scenario"
 
     class Params(Params):
-        scenario: str = param("flat_search", description="scenario file (relative to the "
+        scenario: str = param("demo", description="scenario file (relative to the "
                               "pipeline file) or bundled scenario name; see `firenav "
                               "simulate --list`")
         seed: int = param(0, ge=0, description="random seed: the same seed gives the same run")

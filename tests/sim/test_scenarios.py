@@ -147,3 +147,27 @@ def test_checkpoints_are_recorded_where_the_agent_stood(runs):
     for c in cps:   # the body really stands there during the stop
         m = (tr.t > c.t_start + 0.5) & (tr.t < c.t_end - 0.5)
         assert np.abs(tr.position[m, :2] - c.position[:2]).max() < 0.02
+
+
+def test_compartmental_search_enters_rooms_behind_rooms_and_comes_back():
+    from firenav_framework.simulator.scenario import load_scenario_text
+    text = """
+building: area_250
+agents:
+  - id: a
+    start: {entrance: west, time_s: 2}
+    plan:
+      - walk: {to: [3.0, 5.5]}
+      - compartmental_search: {hand: right, rooms: [corridor, n1, n2, s1]}
+"""
+    r = simulate(load_scenario_text(text), 0)
+    tr = r.truth["a"]
+    floor = r.building.floor(0)
+    rooms = [floor.rooms[i].id if i >= 0 else None for i in floor.room_of(tr.position[:, :2])]
+    visits = [k for i, k in enumerate(rooms) if k and (i == 0 or k != rooms[i - 1])]
+    # N2 is only reachable through N1: in through N1, search N2, back out through N1
+    i2 = visits.index("n2")
+    assert visits[i2 - 1] == "n1" and visits[i2 + 1] == "n1"
+    assert {"corridor", "n1", "n2", "s1"} <= set(visits)
+    assert not {"s2", "n3"} & set(visits)            # outside the allowed rooms
+    assert _wall_crossings(r.building, tr.position) == 0
