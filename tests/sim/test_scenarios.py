@@ -171,3 +171,40 @@ agents:
     assert {"corridor", "n1", "n2", "s1"} <= set(visits)
     assert not {"s2", "n3"} & set(visits)            # outside the allowed rooms
     assert _wall_crossings(r.building, tr.position) == 0
+
+
+def test_magnetometer_reads_the_earth_field_in_the_device_frame_plus_indoor_disturbance():
+    from firenav_framework.simulator.gait import euler_matrix
+    from firenav_framework.simulator.imu_errors import earth_field_enu
+    from firenav_framework.simulator.scenario import load_scenario_text
+    base = """
+building: corridor
+environment:
+  magnetic: {{intensity_ut: 50, inclination_deg: 65, declination_deg: 0,
+             indoor_disturbance_ut: {dist}}}
+agents:
+  - id: a
+    start: {{position: [5.0, 8.4], floor: 0, time_s: 2}}
+    sensors:
+      imu: {{grade: xsens_mti3, axes: FRD, magnetometer: true,
+            mag: {{hard_iron_ut: 0, soft_iron_pct: 0, noise_ut: 0}}}}
+    plan:
+      - walk: {{via: [[15.0, 8.4], [15.0, 7.6], [5.0, 7.6]]}}
+"""
+    clean = simulate(load_scenario_text(base.format(dist=0)), 0)
+    kin = clean.truth["a"].foot
+    bearing = np.radians(clean.building.georef.bearing)
+    earth = earth_field_enu(50, 65, 0)
+    rot = np.array([[np.cos(bearing), np.sin(bearing)], [-np.sin(bearing), np.cos(bearing)]])
+    b_plan = np.array([*(rot.T @ earth[:2]), earth[2]])
+    expect = np.einsum("nji,j->ni", euler_matrix(kin.euler), b_plan) * [1, -1, -1]  # FRD
+    assert np.allclose(clean.imu["a"].mag, expect, atol=1e-9)
+    noisy = simulate(load_scenario_text(base.format(dist=10)), 0)
+    dev = noisy.imu["a"].mag - expect
+    assert 4 < np.sqrt(np.mean(dev ** 2)) < 20          # ~10 uT rms per axis
+    # in the building frame the disturbance is a field over space: smooth, not noise
+    dev_n = np.einsum("nij,nj->ni", euler_matrix(kin.euler), dev * [1, -1, -1])
+    step = np.linalg.norm(np.diff(kin.position, axis=0), axis=1)
+    assert np.abs(np.diff(dev_n, axis=0)).max(axis=1).max() < 0.5 + 20 * step.max()
+    still = kin.stance[1:] & kin.stance[:-1]
+    assert np.abs(np.diff(dev_n, axis=0)[still]).max() < 1e-9
