@@ -91,3 +91,47 @@ def test_gcs_heartbeat_reaches_a_device_once_it_is_heard(running, tmp_path):
     src.stop()
     hb = next(m for m in heard if m.get_type() == "HEARTBEAT")
     assert hb.type == mu.mavlink.MAV_TYPE_GCS and hb.get_srcSystem() == 255
+
+
+def test_a_truncated_datagram_loses_only_its_own_packet(running, tmp_path):
+    port = free_port()
+    src = running(MavlinkSource, {"url": f"udpin:127.0.0.1:{port}", "heartbeat_s": 0},
+                  tmp_path, cid="mav")
+    wait_for(lambda: src.source.link.conn is not None, what="socket open")
+    packets = _imu_packets(4, 20)[:-1]
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    for i, pkt in enumerate(packets):
+        sock.sendto(pkt[:20] if i in (5, 12) else pkt, ("127.0.0.1", port))
+    sock.close()
+    wait_for(lambda: len(src.frames()) >= 18, what="the intact packets")
+    wait_for(lambda: src.counts().get("decode_errors", 0) >= 2, what="both truncations counted")
+    src.stop()
+    assert [f.data for f in src.frames()] == [p for i, p in enumerate(packets) if i not in (5, 12)]
+    assert src.source.monitor.decode_errors == {"bad_data/truncated": 2}
+
+
+def test_framing_checks_the_crc_like_pymavlink():
+    import random
+
+    from pymavlink.generator.mavcrc import x25crc_slow
+
+    from firenav_framework.transports.mavlink_packets import dialect, split_packets
+    pkt = _imu_packets(2, 1)[0]
+    body = 10 + pkt[1]
+    rng = random.Random(4)
+    for _ in range(200):  # random payloads with pymavlink's CRC pass, flipped bits do not
+        data = bytearray(pkt)
+        data[10:body] = bytes(rng.randrange(256) for _ in range(body - 10))
+        crc = x25crc_slow(bytes(data[1:body]))
+        crc.accumulate(bytes([dialect().crc_extra[105]]))
+        data[body:body + 2] = crc.crc.to_bytes(2, "little")
+        assert split_packets(bytes(data)).packets == [bytes(data)]
+        k = rng.randrange(1, body + 2)
+        data[k] ^= 1 << rng.randrange(8)
+        assert split_packets(bytes(data)).packets == []
+    # garbage around packets, a message id the dialect does not know, a cut packet
+    unknown = bytearray(pkt)
+    unknown[7:10] = (0xFFFF00).to_bytes(3, "little")
+    res = split_packets(b"xx" + pkt + b"\x01\x02" + bytes(unknown) + pkt + pkt[:-3])
+    assert res.packets == [pkt, pkt]
+    assert (res.garbage, res.bad_crc, res.truncated) == (2, 1, 1)

@@ -1,10 +1,10 @@
 """Reader of MAVLink ``.tlog`` files: 8-byte big-endian UNIX microseconds + packet.
 
 Packets are framed by their own header (MAVLink 1 ``0xFE``, MAVLink 2 ``0xFD`` with
-its optional 13-byte signature), so the reader needs no dialect and is fast; each
-becomes the RawFrame the live ``mavlink`` source made of it (same time, msgid,
-system/component and bytes). A truncated last record (a killed recorder) ends the
-file and is counted (``truncated_log_tail``); bytes that do not start a packet end
+its optional 13-byte signature), so the reader is fast; each becomes the RawFrame the
+live ``mavlink`` source made of it (the same function,
+:func:`~firenav_framework.transports.mavlink_packets.packet_frame`). A truncated last
+record (a killed recorder) ends the file and is counted (``truncated_log_tail``); bytes that do not start a packet end
 the file too (``bad_tlog_records``), since framing is lost there. Rotated files of
 one recording are read in order.
 """
@@ -15,25 +15,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from ...messages import Message, RawFrame
-from ...transports import clock
+from ...transports.mavlink_packets import packet_frame, packet_length
 from ...transports.recorders import recording_set
 from .base import ReaderError, ReadOptions
 
 _STAMP = struct.Struct(">Q")
-
-
-def _packet_length(buf: bytes | memoryview, i: int) -> int | None:
-    """Total length of the MAVLink packet starting at ``buf[i]`` (None: not a packet)."""
-    magic = buf[i]
-    if magic == 0xFD:
-        if i + 3 > len(buf):
-            return -1
-        return 10 + buf[i + 1] + 2 + (13 if buf[i + 2] & 0x01 else 0)
-    if magic == 0xFE:
-        if i + 2 > len(buf):
-            return -1
-        return 6 + buf[i + 1] + 2
-    return None
 
 
 def tlog_frames(data: bytes, options: ReadOptions) -> Iterator[RawFrame]:
@@ -45,22 +31,14 @@ def tlog_frames(data: bytes, options: ReadOptions) -> Iterator[RawFrame]:
             return
         t_us = _STAMP.unpack_from(data, i)[0]
         j = i + 8
-        length = _packet_length(data, j)
+        length = packet_length(data, j)
         if length is None:
             options.count("bad_tlog_records", 1)
             return
         if length < 0 or j + length > n:
             options.count("truncated_log_tail", 1)
             return
-        pkt = data[j:j + length]
-        if pkt[0] == 0xFD:
-            sysid, compid = pkt[5], pkt[6]
-            msgid = pkt[7] | (pkt[8] << 8) | (pkt[9] << 16)
-        else:
-            sysid, compid, msgid = pkt[3], pkt[4], pkt[5]
-        t = clock.seconds(t_us)
-        yield RawFrame(t=t, t_recv=t, transport="mavlink", channel=msgid, data=pkt,
-                       device=f"sys{sysid}/comp{compid}")
+        yield packet_frame(t_us, data[j:j + length])
         i = j + length
 
 
