@@ -1,9 +1,12 @@
 """The base of every live source: a link, its raw recorder and its health monitor.
 
 :meth:`LiveSource.messages` runs in the runner's source thread. For every arrival it
-first records the native frame (before anything can go wrong with it), then updates
-the link health and yields ``("raw", RawFrame)``. Between reads it yields the health
-diagnostics that are due and lets the recorder flush. A link that fails to open or
+first records the native frames of a read and hands them to the operating system
+(before anything can go wrong with them, and before the pipeline sees them: a
+process killed with ``kill -9`` has logged every frame it used, so the replay of its
+logs reproduces every pose it published), then updates the link health and yields
+``("raw", RawFrame)`` per frame. Between reads it yields the health diagnostics that
+are due and lets the recorder rotate. A link that fails to open or
 breaks is reported (``link_down``), retried every ``reconnect_s`` seconds, and
 reported again when it is back (``link_down`` with ``active=False``).
 
@@ -39,8 +42,6 @@ class LiveParams(Params):
                              "when the current one reaches this size")
     rotate_min: float = param(60.0, unit="min", ge=0, description="start a new log file "
                               "after this many minutes (0: only by size)")
-    flush_s: float = param(0.1, unit="s", gt=0, le=5, description="hand recorded data to "
-                           "the operating system at least this often (what a crash can lose)")
     silent_after: float = param(2.0, unit="s", gt=0, description="a device heard before "
                                 "and silent this long raises device_silent")
     report_every: float = param(10.0, unit="s", ge=0, description="link_health report "
@@ -93,7 +94,7 @@ class LiveSource(Source):
         if p.record:
             self.recorder = self.make_recorder(
                 self.record_folder(), rotate_bytes=int(p.rotate_mb * (1 << 20)),
-                rotate_s=p.rotate_min * 60.0, flush_s=p.flush_s)
+                rotate_s=p.rotate_min * 60.0)
         up: bool | None = None  # None: never connected yet
         last_frame: float | None = None
         try:
@@ -113,11 +114,9 @@ class LiveSource(Source):
                     self.ctx.count("link_lost")
                     yield "diagnostics", self._link_diag("error", f"link lost: {exc}", True)
                     continue
+                if self.recorder is not None and arrivals:
+                    self._record(arrivals)
                 for t_us, native in arrivals:
-                    if self.recorder is not None:
-                        item = self.link.record_item(native)
-                        if item is not None:
-                            self.recorder.write(t_us, item)
                     frame = self.link.to_frame(t_us, native)
                     if frame is None:
                         self.monitor.decode_error(self.link.health_key(native))
@@ -139,6 +138,15 @@ class LiveSource(Source):
             self.link.close()
             if self.recorder is not None:
                 self.recorder.close()
+
+    def _record(self, arrivals: list[tuple[int, Any]]) -> None:
+        """Write a batch and hand it to the operating system before any of its frames
+        is passed on: a killed process has logged every frame its pipeline saw."""
+        for t_us, native in arrivals:
+            item = self.link.record_item(native)
+            if item is not None:
+                self.recorder.write(t_us, item)
+        self.recorder.flush()
 
     def _connect(self, was_up: bool | None) -> tuple[bool, Diagnostic | None]:
         try:

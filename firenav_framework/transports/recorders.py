@@ -3,10 +3,12 @@
 Every recorder appends to ``<folder>/<prefix>-<NNNN>-<start time><suffix>``, opens the
 next numbered file when the current one reaches ``rotate_bytes`` or ``rotate_s``
 seconds of age, and hands its buffers to the operating system at least every
-``flush_s`` seconds (``poll()`` is called by the source even when nothing arrives).
-A process killed with SIGKILL therefore loses at most the last ``flush_s`` of data,
-and every file stays readable: the readers accept a truncated last record. Files are
-``fsync``-ed when they are closed or rotated.
+``flush_s`` seconds (``poll()`` is called by the source even when nothing arrives) and
+whenever :meth:`~RotatingRecorder.flush` is called (the live sources call it after
+each read, before the frames go on). A process killed with SIGKILL therefore loses
+nothing that was flushed, at most the last ``flush_s`` of data, and every file stays
+readable: the readers accept a truncated last record. Files are ``fsync``-ed when
+they are closed or rotated (in a background thread: an fsync can take seconds).
 
 Formats:
 
@@ -103,6 +105,11 @@ class RotatingRecorder(ABC):
         self._write(t_us, item)
         self.frames += 1
         self.poll(force=self.frames % SIZE_CHECK_EVERY == 0)
+
+    def flush(self) -> None:
+        """Hand everything written so far to the operating system (no fsync)."""
+        if self._open_path is not None:
+            self._flush()
 
     def poll(self, force: bool = False) -> None:
         """Flush if due (call regularly, also when nothing arrives); ``force`` flushes now."""
