@@ -1,11 +1,15 @@
 """``firenav play INPUT --can ... --mavlink ...``: act as the devices on live links.
 
-INPUT is a scenario (``.yaml``, played by the ``simulator`` source) or any recording
-the ``recording`` source reads. Its IMU blocks are encoded as the reference devices
-send them and sent in real time: devices of the agents named by ``--mavlink-agents``
-(or all, when no ``--can`` is given) as MAVLink 2 HIGHRES_IMU from system ``N`` (the
-order of first appearance, from 1) with the left/right foot as IMU id 0/1; the
-others as CAN frames of the reference DBC, node = device index on the bus.
+INPUT is a scenario (a ``.yaml`` file or a bundled scenario name, simulated with
+``--seed``) or any recording the ``recording`` source reads. Its foot-IMU blocks are
+encoded as the reference devices send them and sent in real time (``--speed``
+times faster), in the team layout of ``pipelines/field-live.yaml``
+(:mod:`firenav_framework.transports.player`): the firefighter at position N of the
+scenario (order of first appearance in a recording) is MAVLink system N with
+HIGHRES_IMU id 0/1 for the left/right foot, or CAN nodes 2(N-1) (left) and
+2(N-1)+1 (right). Agents named by ``--mavlink-agents`` go over MAVLink, the others
+over CAN; without ``--can`` everyone goes over MAVLink. The assignment of every
+device is printed on stderr as it starts.
 """
 from __future__ import annotations
 
@@ -13,48 +17,71 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..components import Context
 from ..messages import ImuBlock
 from ..registry import default_registry
 from ..stats import RunStats
-from ..components import Context
 from ..transports.mavlink_link import mavutil
-from ..transports.player import Assignment, DevicePlayer
+from ..transports.player import DevicePlayer, Roster
 from . import UsageError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("play", help="play a scenario or recording onto CAN / MAVLink as devices would")
-    p.add_argument("input", type=Path, help="scenario YAML (simulator) or a recording")
+    p.add_argument("input", help="scenario YAML or bundled scenario name (simulated), or a recording")
     p.add_argument("--can", metavar="INTERFACE:CHANNEL", help="python-can bus, e.g. "
-                   "udp_multicast:239.74.163.2 or slcan:/dev/ttyACM0")
+                   "udp_multicast:239.74.163.2, virtual:x or slcan:/dev/ttyACM0")
     p.add_argument("--can-option", action="append", default=[], metavar="KEY=VALUE",
                    help="extra can.Bus keyword (integers are converted), e.g. port=43113")
     p.add_argument("--mavlink", metavar="URL", help="pymavlink URL, e.g. udpout:127.0.0.1:14550")
     p.add_argument("--mavlink-agents", default="", help="comma-separated agents sent over "
-                   "MAVLink when --can is also given")
+                   "MAVLink when --can is also given (the others go over CAN)")
     p.add_argument("--speed", type=float, default=1.0, help="times faster than real time "
                    "(0: as fast as possible)")
     p.add_argument("--seed", type=int, default=None, help="simulator seed (scenarios)")
+    p.add_argument("--duration", type=float, default=None, help="play only the first this "
+                   "many seconds of a scenario")
+    p.add_argument("--block-s", type=float, default=0.01, help="samples are sent in blocks "
+                   "of this many seconds (default 0.01: close to a device's own pace)")
     p.set_defaults(func=play)
 
 
-def _source(path: Path, seed: int | None):
-    reg = default_registry()
-    name = "simulator" if path.suffix.lower() in (".yaml", ".yml") else "recording"
-    info = reg.get("source", name)
+def imu_source(name: str, *, seed: int | None = None, duration: float | None = None,
+               block_s: float = 0.01):
+    """The ``simulator`` (scenario) or ``recording`` source that reads ``name``."""
+    from ..simulator.scenario import SCENARIO_DIR
+    path = Path(name)
+    scenario = path.suffix.lower() in (".yaml", ".yml") or (
+        not path.exists() and (SCENARIO_DIR / f"{name}.yaml").is_file())
+    if not scenario and not path.is_file():
+        raise UsageError(f"{name}: no such file or bundled scenario")
+    plugin = "simulator" if scenario else "recording"
+    info = default_registry().get("source", plugin)
     if info is None:
-        raise UsageError(f"no '{name}' source plugin is installed to read {path}")
-    params = {info.cls.input_param: str(path.resolve())}
-    if seed is not None and "seed" in info.cls.Params.model_fields:
-        params["seed"] = seed
+        raise UsageError(f"no '{plugin}' source plugin is installed to read {name}")
+    params: dict = {info.cls.input_param: str(path.resolve()) if path.exists() else name,
+                    "block_s": block_s}
+    if scenario:
+        params["seed"] = 0 if seed is None else seed
+        if duration is not None:
+            params["duration"] = duration
     ctx = Context("play", stats=RunStats(), publish=lambda *a: None, base_dir=Path.cwd())
-    return info.cls(info.cls.Params.model_validate(params), ctx)
+    try:
+        return info.cls(info.cls.Params.model_validate(params), ctx)
+    except ValueError as exc:
+        raise UsageError(f"{name}: {exc}") from None
 
 
 def play(args: argparse.Namespace) -> int:
     if not (args.can or args.mavlink):
         raise UsageError("give --can and/or --mavlink")
-    src = _source(args.input, args.seed)
+    src = imu_source(args.input, seed=args.seed, duration=args.duration, block_s=args.block_s)
+    mav_agents = set(filter(None, args.mavlink_agents.split(","))) if args.can else None
+    if args.mavlink is None and mav_agents:
+        raise UsageError("--mavlink-agents needs --mavlink")
+    scenario = getattr(src, "scenario", None)
+    roster = (Roster.of_scenario(scenario, mav_agents) if scenario is not None
+              else Roster(mavlink_agents=mav_agents))
     bus = conn = None
     if args.can:
         interface, _, channel = args.can.partition(":")
@@ -64,32 +91,21 @@ def play(args: argparse.Namespace) -> int:
         bus = can.Bus(interface=interface, channel=channel, **opts)
     if args.mavlink:
         conn = mavutil().mavlink_connection(args.mavlink, source_system=255)
-    mav_agents = set(filter(None, args.mavlink_agents.split(","))) if args.can else None
     player = DevicePlayer(can_bus=bus, mavlink=conn, speed=args.speed)
-    agents: list[str] = []
+
+    def announce(device: str, a) -> None:
+        print(f"[play] {device} -> {a}", file=sys.stderr, flush=True)
+        if a.link == "can" and bus is None:
+            raise UsageError(f"{device} goes over CAN: give --can, or name its agent in "
+                             "--mavlink-agents")
+
+    blocks = (m for _, m in src.messages() if isinstance(m, ImuBlock))
     try:
-        for _, msg in src.messages():
-            if not isinstance(msg, ImuBlock):
-                continue
-            if msg.device not in player.assignments:
-                if msg.agent not in agents:
-                    agents.append(msg.agent)
-                over_mav = mav_agents is None or msg.agent in mav_agents
-                same = [d for d, a in player.assignments.items()
-                        if a.link == ("mavlink" if over_mav else "can")]
-                if over_mav:
-                    mine = sum(1 for d in same if d.startswith(msg.agent + "/"))
-                    player.assignments[msg.device] = Assignment(
-                        "mavlink", sysid=agents.index(msg.agent) + 1, imu_id=mine)
-                else:
-                    player.assignments[msg.device] = Assignment("can", node=len(same))
-                a = player.assignments[msg.device]
-                print(f"[play] {msg.device} -> " + (f"CAN node {a.node}" if a.link == "can"
-                      else f"MAVLink sys{a.sysid} imu{a.imu_id}"), file=sys.stderr)
-            player.pace(msg.t)
-            player.send(msg)
+        player.play(blocks, roster, on_assign=announce)
     except KeyboardInterrupt:
         pass
+    except ValueError as exc:  # a layout without room for a device
+        raise UsageError(str(exc)) from None
     finally:
         if bus is not None:
             bus.shutdown()
