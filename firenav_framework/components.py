@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterator
+from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
@@ -30,10 +31,20 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Params", "param", "Component", "Source", "Sensor", "Estimator", "Constraint",
-    "Sink", "Context", "PerAgent", "KINDS",
+    "Sink", "Context", "PerAgent", "KINDS", "pipeline_dir",
 ]
 
 KINDS = ("source", "sensor", "estimator", "constraint", "sink")
+
+#: Folder of the pipeline file being validated or run (see :func:`pipeline_dir`).
+PIPELINE_DIR: ContextVar[Path | None] = ContextVar("firenav_pipeline_dir", default=None)
+
+
+def pipeline_dir() -> Path:
+    """Folder of the pipeline being validated or run, which relative parameter paths are
+    relative to; for code outside a pipeline, the working directory. Class methods such as
+    ``output_ports`` use it to find a file named in the parameters before construction."""
+    return PIPELINE_DIR.get() or Path.cwd()
 
 
 class Params(BaseModel):

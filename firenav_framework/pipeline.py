@@ -32,7 +32,7 @@ import yaml
 from pydantic import ValidationError
 
 from .bus import FAULT_POLICIES
-from .components import Component, Estimator, Params, Source
+from .components import PIPELINE_DIR, Component, Estimator, Params, Source
 from .messages import Diagnostic, Message
 from .registry import PluginInfo, Registry, default_registry
 from .timeline import TimelineConfig
@@ -426,10 +426,14 @@ def validate_document(doc: LocatedDocument, *, registry: Registry | None = None,
                       ) -> PipelineSpec:
     """Validate parsed pipeline data; raises :class:`ConfigError` listing every problem."""
     registry = registry or default_registry()
-    v = _Validator(doc, registry, overrides or {})
-    specs, timeline, name = v.run()
-    data = doc.data
     base_dir = base_dir or Path(doc.file).resolve().parent
+    v = _Validator(doc, registry, overrides or {})
+    token = PIPELINE_DIR.set(base_dir)
+    try:
+        specs, timeline, name = v.run()
+    finally:
+        PIPELINE_DIR.reset(token)
+    data = doc.data
     building = None
     if data.get("building") is not None:
         if not isinstance(data["building"], str):

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from .bus import Bus, Fault, Subscription
-from .components import Component, Context, Estimator, Source
+from .components import PIPELINE_DIR, Component, Context, Estimator, Source
 from .messages import Diagnostic, Message
 from .pipeline import ComponentSpec, PipelineSpec
 from .stats import RunStats
@@ -170,6 +170,19 @@ class Runner:
                 comp.stop()
 
     def run(self) -> RunResult:
+        token = PIPELINE_DIR.set(self.spec.base_dir)
+        try:
+            return self._run()
+        finally:
+            PIPELINE_DIR.reset(token)
+
+    def _building_if_any(self) -> Any:
+        try:
+            return self._load_building()
+        except RuntimeError:  # this pipeline has no building
+            return None
+
+    def _run(self) -> RunResult:
         self.build()
         wall0 = time.monotonic()
         for cid, comp in self.components.items():
@@ -199,8 +212,7 @@ class Runner:
             pipeline=self.spec.name, stats=self.stats, tracks=self.store.tracks(),
             truth=self.store.truth(), diagnostics=self.diagnostics, faults=self.bus.faults,
             t_first=self._t_first, t_last=self._t_last, wall_s=time.monotonic() - wall0,
-            components=self.components,
-            building=self._building_cache[0] if self._building_cache else None)
+            components=self.components, building=self._building_if_any())
 
     def _source_iter(self, cid: str, src: Source) -> Iterator[tuple[str, Message]]:
         """A source's messages as (stream, message); a failing source is a contained fault."""

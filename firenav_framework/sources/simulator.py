@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from pathlib import Path
 
-from ..components import Params, Source, param
+from ..components import Params, Source, param, pipeline_dir
 from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range,
                         RssiReading, TagDeployment, TagDetection)
 from ..yaml_locations import ConfigError
@@ -61,19 +61,14 @@ class SimulatorSource(Source):
 
     @classmethod
     def output_ports(cls, params: Params) -> dict[str, type[Message]]:
-        scenario = _try_load(params.scenario)
-        ports = PORTS if scenario is None else {
-            p: t for p, t in PORTS.items() if p in scenario_ports(scenario)}
+        scenario = _try_load(params.scenario, pipeline_dir())
+        ports = {p: t for p, t in PORTS.items() if p in scenario_ports(scenario)}
         return {**ports, **super().output_ports(params)}
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
         from ..simulator import load_scenario, simulate
-        from ..simulator.scenario import SCENARIO_DIR
-        path = ctx.resolve(params.scenario)
-        if not path.is_file() and (SCENARIO_DIR / f"{params.scenario}.yaml").is_file():
-            path = SCENARIO_DIR / f"{params.scenario}.yaml"
-        self.scenario = load_scenario(path if path.is_file() else params.scenario)
+        self.scenario = load_scenario(_scenario_path(params.scenario, ctx.base_dir))
         self.result = simulate(self.scenario, params.seed, duration_s=params.duration)
         self._ports = scenario_ports(self.scenario)
 
@@ -95,19 +90,31 @@ class SimulatorSource(Source):
         yield from r.stream(self.params.block_s, self._ports)
 
 
-def _try_load(name_or_path: str):
-    """The scenario if it can be found without the pipeline's folder, else None.
+def _scenario_path(name_or_path: str, base_dir: Path) -> Path:
+    """A scenario file relative to the pipeline's folder, else a bundled scenario's file.
 
-    A scenario that is found but invalid raises ValueError with its file:line problems,
-    which the pipeline validator shows at the ``scenario`` parameter.
+    Raises ValueError naming both places when neither exists.
     """
-    from ..simulator import load_scenario
+    from ..simulator import bundled_scenarios
     from ..simulator.scenario import SCENARIO_DIR
     p = Path(name_or_path).expanduser()
-    if not p.is_file() and not (SCENARIO_DIR / f"{name_or_path}.yaml").is_file():
-        return None
+    p = p if p.is_absolute() else base_dir / p
+    if p.is_file():
+        return p
+    bundled = SCENARIO_DIR / f"{name_or_path}.yaml"
+    if bundled.is_file():
+        return bundled
+    raise ValueError(f"scenario '{name_or_path}' not found: no file {p} and no bundled "
+                     f"scenario of that name (bundled: {', '.join(bundled_scenarios())})")
+
+
+def _try_load(name_or_path: str, base_dir: Path):
+    """The scenario, for validation; a missing or invalid one raises ValueError with its
+    problems, which the pipeline validator shows at the ``scenario`` parameter."""
+    from ..simulator import load_scenario
+    path = _scenario_path(name_or_path, base_dir)
     try:
-        return load_scenario(name_or_path)
+        return load_scenario(path)
     except ConfigError as exc:
         raise ValueError("invalid scenario: " + "; ".join(str(p) for p in exc.problems)) from None
 

@@ -169,3 +169,14 @@ def test_overrides_change_values_and_errors_point_at_the_command_line(tmp_path):
 def test_every_problem_is_reported_at_once():
     text = GOOD.replace("gain: 1.0", "gain: 0").replace("plugin: csv_tracks", "plugin: csv")
     assert len(problems(text)) == 2
+
+
+def test_a_missing_scenario_is_reported_at_validation(tmp_path):
+    (tmp_path / "mine.yaml").write_text("not: a scenario\n")
+    text = "sources:\n  - {id: sim, plugin: simulator, scenario: nowhere}\n"
+    msgs = problems(text, base_dir=tmp_path)
+    assert len(msgs) == 1 and "scenario 'nowhere' not found: no file " in msgs[0]
+    assert "bundled: " in msgs[0] and "demo" in msgs[0]
+    # a path relative to the pipeline's folder is found (and checked) before anything runs
+    msgs = problems(text.replace("nowhere", "mine.yaml"), base_dir=tmp_path)
+    assert len(msgs) == 1 and "invalid scenario" in msgs[0]

@@ -8,7 +8,7 @@ import pytest
 
 from firenav_framework.cli import main
 from firenav_framework.pipeline import load_pipeline_text
-from firenav_framework.runner import PipelineBuildError, run_pipeline
+from firenav_framework.runner import run_pipeline
 from firenav_framework.simulator import simulate
 from firenav_framework.simulator.output import write_simulation
 from firenav_framework.simulator.scenario import load_scenario, load_scenario_text
@@ -151,11 +151,9 @@ sources:
         load_pipeline_text(text, file="p.yaml", base_dir=tmp_path)
     msg = str(exc.value)
     assert "p.yaml:3:" in msg and "bad.yaml:7:" in msg and "unknown plan step 'jog'" in msg
-    missing = load_pipeline_text(
-        "sources:\n  - {id: sim, plugin: simulator, scenario: gone.yaml}\n",
-        file="p.yaml", base_dir=tmp_path)
-    with pytest.raises(PipelineBuildError, match="no such scenario file"):
-        run_pipeline(missing)
+    with pytest.raises(ConfigError, match="scenario 'gone.yaml' not found: no file "):
+        load_pipeline_text("sources:\n  - {id: sim, plugin: simulator, scenario: gone.yaml}\n",
+                           file="p.yaml", base_dir=tmp_path)
 
 
 def test_cli_simulate_writes_a_folder(tmp_path, capsys):
