@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..tracks import Track
-from .metrics import TrackErrors, path_length
+from .metrics import TrackErrors, floor_right, path_length
 
 
 @dataclass
@@ -104,8 +104,7 @@ def checkpoint_errors(track: Track, cps: Checkpoints, *, align: str = "none",
         est[:, :2] = est[:, :2] @ r.T + off
     horizontal = np.hypot(*(est[:, :2] - ref[:, :2]).T) if len(t) else np.empty(0)
     vertical = est[:, 2] - ref[:, 2] if len(t) else np.empty(0)
-    fe, ft = floor[inside], cps.floor[inside]
-    floor_ok = np.where((fe >= 0) & (ft >= 0), (fe == ft).astype(float), np.nan)
+    floor_ok = floor_right(floor[inside], cps.floor[inside], ref[:, 2], None)
     dist = distance_m if distance_m is not None else path_length(cps.position[:, :2])
     return (TrackErrors(cps.agent, t, horizontal, vertical, floor_ok, dist),
             int((~inside).sum()))

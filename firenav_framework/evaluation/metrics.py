@@ -16,7 +16,9 @@ Definitions (all distances horizontal unless said otherwise, metres, seconds):
   10.9 m maximum over 400 m = 1.4 % and 2.7 %);
 * ``vertical_rmse_m``: RMS of estimate z - true z (None if the estimate has no z);
 * ``floor_accuracy``: fraction of estimates whose floor index equals the true floor
-  (None if the estimator reports no floors);
+  (None if the estimator reports no floors). While the true height is on a stair flight
+  or landing, more than :data:`STAIR_BAND_M` from every floor level, the firefighter is
+  between two floors and either of them counts as right (needs the floor levels);
 * ``converge_s``: time from the first estimate until the error drops below
   ``bound_m`` for good (None if it never stays below).
 """
@@ -28,6 +30,26 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..tracks import Track
+
+#: A true height farther than this [m] from every floor level is "between floors".
+STAIR_BAND_M = 0.5
+
+
+def floor_right(floor_est: np.ndarray, floor_true: np.ndarray, z_true: np.ndarray,
+                floor_levels: np.ndarray | None) -> np.ndarray:
+    """1.0 where the estimated floor is right, 0.0 where wrong, NaN where either is unknown.
+
+    Between floors (see :data:`STAIR_BAND_M`) the floors just below and above the true
+    height both count as right; without ``floor_levels`` only the true floor does.
+    """
+    known = (floor_est >= 0) & (floor_true >= 0)
+    ok = floor_est == floor_true
+    if floor_levels is not None and len(floor_levels) > 1:
+        levels = np.sort(np.asarray(floor_levels, float))
+        between = np.min(np.abs(z_true[:, None] - levels[None, :]), axis=1) > STAIR_BAND_M
+        below = np.clip(np.searchsorted(levels, z_true, side="right") - 1, 0, len(levels) - 1)
+        ok |= between & ((floor_est == below) | (floor_est == below + 1))
+    return np.where(known, ok.astype(float), np.nan)
 
 #: Default error bound for the convergence time [m] (search-pattern paper, Sec. V-C:
 #: the filter "stabilizes at a RMSE of about one meter"; twice that counts as settled).
@@ -103,8 +125,13 @@ class TrackErrors:
     distance_m: float         # true path length over the span
 
 
-def track_errors(track: Track, truth: Track) -> TrackErrors:
-    """Errors of ``track`` against dense ``truth`` at the estimate's times."""
+def track_errors(track: Track, truth: Track, floor_levels: np.ndarray | None = None
+                 ) -> TrackErrors:
+    """Errors of ``track`` against dense ``truth`` at the estimate's times.
+
+    ``floor_levels`` (the building's floor heights [m]) lets the floor check accept
+    either neighbouring floor while the truth is on the stairs between them.
+    """
     t, e = horizontal_errors(track, truth)
     n = len(t)
     if n == 0:
@@ -117,9 +144,7 @@ def track_errors(track: Track, truth: Track) -> TrackErrors:
     # nearest truth sample's floor (floors are integers: no interpolation)
     nxt = np.clip(idx + 1, 0, len(truth) - 1)
     near = np.where(np.abs(truth.t[nxt] - t) < np.abs(truth.t[idx] - t), nxt, idx)
-    floor_true = truth.floor[near]
-    floor_ok = np.where((floor_est >= 0) & (floor_true >= 0),
-                        (floor_est == floor_true).astype(float), np.nan)
+    floor_ok = floor_right(floor_est, truth.floor[near], z_true, floor_levels)
     span = (truth.t >= t[0]) & (truth.t <= t[-1])
     dist = path_length(truth.position[span, :2])
     return TrackErrors(track.agent, t, e, vertical, floor_ok, dist)

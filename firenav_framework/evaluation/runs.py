@@ -199,6 +199,8 @@ def _measure(result, seed, stream: str, truth_mode: str, align: str, bound_m: fl
     missing: list[str] = []
     outside = 0
     mode_used = truth_mode
+    levels = (np.array([f.z for f in result.building.floors])
+              if result.building is not None else None)
     for agent, tr in tracks.items():
         tt = truth.get(agent)
         if tt is None or len(tt) == 0:
@@ -209,7 +211,7 @@ def _measure(result, seed, stream: str, truth_mode: str, align: str, bound_m: fl
             mode = "sparse" if is_sparse(tt) else "dense"
         mode_used = mode
         if mode == "dense":
-            errors[agent] = track_errors(tr, tt)
+            errors[agent] = track_errors(tr, tt, levels)
             if align != "none":
                 raise EvaluationError("--align applies to checkpoint evaluation (sparse or "
                                       "checkpoints truth modes)")

@@ -148,3 +148,17 @@ def test_checkpoints_outside_the_estimate_are_counted_and_align_is_checked():
 def test_error_stats_skip_non_finite_values():
     s = error_stats(np.array([1.0, np.nan, 3.0, np.inf]))
     assert s.n == 2 and s.mean_m == 2.0
+
+
+def test_between_floors_either_neighbouring_floor_is_right():
+    from firenav_framework.evaluation.metrics import floor_right
+    levels = np.array([0.0, 3.5, 7.0])
+    z_true = np.array([0.0, 1.75, 1.75, 1.75, 3.5, 3.4, 5.0])
+    floor_true = np.array([0, 0, 1, 0, 1, 1, 1])   # the 1.75 m landing is a coin toss
+    floor_est = np.array([0, 1, 0, 2, 0, 1, 2])
+    np.testing.assert_array_equal(floor_right(floor_est, floor_true, z_true, levels),
+                                  [1, 1, 1, 0, 0, 1, 1])
+    # without the levels only the labelled floor counts; unknown floors are NaN
+    got = floor_right(np.array([0, 1, -1]), np.array([0, 0, 0]), np.zeros(3), None)
+    np.testing.assert_array_equal(got[:2], [1, 0])
+    assert np.isnan(got[2])
