@@ -13,8 +13,10 @@ range. This sensor turns the device reports into clean :class:`Range` messages:
   grows as the signal weakens).
 * **NLOS suspicion**: a total received power more than ``nlos_power_gap`` (6 dB) above
   the first-path power means most energy arrived late, i.e. the direct path is
-  blocked (the usual DW1000 rule of thumb, Decawave APS006). Such ranges are flagged
-  ``nlos`` and get ``nlos_sigma``.
+  blocked (the usual DW1000 rule of thumb, Decawave APS006); without power readings
+  (the simulator's ranges), a range longer than the link's smoothed range track
+  (constant-velocity Kalman filter) predicts by ``nlos_innovation`` sigmas is
+  suspect too. Such ranges are flagged ``nlos`` and get ``nlos_sigma``.
 * **outliers**: a range that moved farther from the link's last accepted range than
   walking at ``max_speed`` (plus ``gate_sigmas`` sigma) allows is dropped and counted;
   after ``relock_after`` mutually consistent rejects the link re-locks on them.
@@ -214,6 +216,36 @@ class _Link:
     accepted: tuple[float, float] | None = None   # (t, range) of the last accepted range
     rejects: list = field(default_factory=list)   # consecutive rejected (t, range)
     silent: bool = False
+    track: "_RangeTrack | None" = None    # smoothed range and range rate
+
+
+class _RangeTrack:
+    """Constant-velocity Kalman filter on one link's range: state (range [m], rate [m/s]).
+
+    Walking changes a range smoothly; a range that jumps *longer* than the track allows
+    is the signature of a blocked direct path (NLOS adds delay, never removes it).
+    """
+
+    def __init__(self, t: float, r: float, sigma: float, max_rate: float):
+        self.t = t
+        self.x = np.array([r, 0.0])
+        self.P = np.diag([sigma ** 2, max_rate ** 2])
+
+    def innovation(self, t: float, r: float, sigma: float, accel: float) -> tuple[float, float]:
+        """Predict to ``t``; (innovation [m], its standard deviation [m])."""
+        dt = max(t - self.t, 0.0)
+        f = np.array([[1.0, dt], [0.0, 1.0]])
+        g = np.array([0.5 * dt * dt, dt])
+        self.x = f @ self.x
+        self.P = f @ self.P @ f.T + np.outer(g, g) * accel ** 2
+        self.t = t
+        return r - self.x[0], math.sqrt(self.P[0, 0] + sigma ** 2)
+
+    def update(self, r: float, sigma: float) -> None:
+        s = self.P[0, 0] + sigma ** 2
+        k = self.P[:, 0] / s
+        self.x = self.x + k * (r - self.x[0])
+        self.P = self.P - np.outer(k, self.P[0, :])
 
 
 class UwbSensor(Sensor):
@@ -236,6 +268,11 @@ class UwbSensor(Sensor):
                                   "NLOS-suspect range")
         nlos_power_gap: float = param(6.0, unit="dB", gt=0, description="total minus "
                                       "first-path power above which a range is NLOS-suspect")
+        nlos_innovation: float | None = param(3.0, gt=0, description="a range longer than "
+                                              "its link's smoothed track predicts by this "
+                                              "many sigmas is NLOS-suspect (null: off)")
+        range_accel: float = param(0.5, unit="m/s^2", gt=0, description="range acceleration "
+                                   "the track allows (walking, turning)")
         min_range: float = param(0.0, unit="m", ge=0, description="ranges below this are dropped")
         max_range: float = param(150.0, unit="m", gt=0, description="ranges above this are dropped")
         max_speed: float = param(3.0, unit="m/s", gt=0, description="fastest a firefighter "
@@ -337,6 +374,13 @@ class UwbSensor(Sensor):
         if not self._gate(link, t, r, sig):
             self.ctx.count("outliers")
             return
+        if link.track is None:
+            link.track = _RangeTrack(t, r, sig, p.max_speed)
+        else:
+            nu, s_nu = link.track.innovation(t, r, sig, p.range_accel)
+            if not nlos and p.nlos_innovation is not None and nu > p.nlos_innovation * s_nu:
+                nlos, sig = True, max(sigma, p.nlos_sigma)
+            link.track.update(r, sig)
         if nlos:
             self.ctx.count("nlos_suspect")
         self.ctx.publish("range", Range(t=t, agent=agent, device=f"{agent}/uwb", a=agent,
@@ -358,7 +402,7 @@ class UwbSensor(Sensor):
         link.rejects.append((t, r))
         if len(link.rejects) >= p.relock_after:
             self.ctx.count("relocks")
-            link.accepted, link.rejects = (t, r), []
+            link.accepted, link.rejects, link.track = (t, r), [], None
             return True
         return False
 

@@ -176,3 +176,18 @@ def test_bad_dbc_path_fails_at_construction(tmp_path):
     dbc.write_text('VERSION ""\n\nBU_: A\n\nBO_ 1 OTHER: 8 A\n SG_ X : 0|8@1+ (1,0) [0|255] "" A\n')
     with pytest.raises(ValueError, match="no UWB_TWR_REPORT"):
         make_component(UwbSensor, {"dbc": str(dbc)})
+
+
+@pytest.mark.parametrize("jump, flagged", [(1.0, True), (-1.0, False), (0.1, False)])
+def test_range_jumping_longer_than_its_track_is_nlos_suspect(jump, flagged):
+    """No power readings (simulated ranges): walking away at 1.2 m/s, ranges every 0.5 s;
+    from t = 10 s a wall adds delay (positive jump). Only a longer jump is NLOS-like."""
+    t = np.arange(0.0, 15.0, 0.5)
+    r = 3.0 + 1.2 * t + np.where(t >= 10.0, jump, 0.0)
+    items = [("r", Range(t=float(tk), agent="ff1", a="ff1/uwb", b="uwb_start",
+                         range_m=float(rk), sigma_m=0.1)) for tk, rk in zip(t, r)]
+    rec, counts = feed({}, items)
+    out = rec.on("range")
+    assert len(out) == len(t)
+    assert not any(m.nlos for m in out if m.t < 10.0)
+    assert out[int(np.searchsorted(t, 10.0))].nlos == flagged
