@@ -4,8 +4,10 @@ Localization System for Firefighters" (``../shared/papers/breadcrumb-gen-rmg.txt
 from __future__ import annotations
 
 from .batch import KirchhoffSystem, batch_blue
+from .estimator import BreadcrumbGen
 from .network import GeneralizedElectricalNetwork
 
-PLUGINS: list[type] = []
+PLUGINS = [BreadcrumbGen]
 
-__all__ = ["GeneralizedElectricalNetwork", "KirchhoffSystem", "batch_blue", "PLUGINS"]
+__all__ = ["BreadcrumbGen", "GeneralizedElectricalNetwork", "KirchhoffSystem", "batch_blue",
+           "PLUGINS"]

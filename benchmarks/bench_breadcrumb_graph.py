@@ -1,0 +1,329 @@
+"""Speed of the GEN/RMG estimator on a large team graph, against batch solvers.
+
+The graph: 20 firefighters enter a 70 m x 50 m floor through doors along its outer walls
+(surveyed from the base station) and walk 95 steps each (1 900 states), dropping a
+breadcrumb whenever none is within 6 m (about 70 breadcrumbs, ~2 000 nodes in all).
+Every state has a relative-position edge from the previous one (INS odometry),
+breadcrumbs a drop edge to the dropping state; every state ranges to the 12 nearest
+breadcrumbs (and the base station) within 15 m and to the other firefighters' current
+states within 15 m; closer than 1.5 m a contact is an encounter (zero relative
+position). About 19 000 edges, with loop closures wherever a firefighter passes a
+breadcrumb anyone dropped earlier.
+
+One *update* is one new firefighter state with all its edges (plus a drop when it
+happens). Reported per update, in the same run:
+
+* ours - :class:`GeneralizedElectricalNetwork` (incremental exact BLUE): add the node
+  and edges, re-linearise stale ranges, return estimates and covariance blocks of every
+  changed node (the new state and the nodes it measured);
+* sparse batch BLUE - assemble the whole Kirchhoff matrix (eqs. 4, 7, 9, 20, 21),
+  factorise it and get the same estimates and covariance blocks (every Nth update);
+* GTSAM iSAM2 (update + estimate of the new state) and GTSAM batch
+  Levenberg-Marquardt on the final graph, when ``gtsam`` is installed (optional:
+  ``pip install gtsam``; never a dependency of firenav).
+
+At the end: the incremental estimates against the batch optimum of the same non-linear
+problem (ours, and GTSAM's LM), and on the graph without ranges (linear) the incremental
+estimates against the batch BLUE. BLAS runs single-threaded (small dense updates).
+
+Run: ``.venv/bin/python benchmarks/bench_breadcrumb_graph.py [--seed 0] [--quick]``
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from dataclasses import dataclass, field
+
+# Small dense updates: one BLAS thread each is faster, and much faster on a loaded machine.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from firenav_plugins.estimators.breadcrumb_gen.network import (
+    GeneralizedElectricalNetwork, batch_blue)
+
+#: Closer than this a radio contact is an encounter (§V-A): a zero relative position
+#: with ENCOUNTER_SIGMA per axis instead of a range (whose direction is meaningless there).
+ENCOUNTER_M = 1.5
+ENCOUNTER_SIGMA = 0.75
+
+
+@dataclass
+class Update:
+    """One new firefighter state and its edges."""
+
+    key: str
+    parent: str
+    odo: np.ndarray                       # x_new - x_parent, measured
+    odo_cov: np.ndarray
+    ranges: list[tuple[str, float, float]] = field(default_factory=list)  # (other, r, var)
+    encounters: list[str] = field(default_factory=list)   # nodes passed within 1.5 m
+    drop: str | None = None               # breadcrumb dropped at this state
+
+
+def make_graph(seed: int = 0, agents: int = 20, steps: int = 95, bc_spacing: float = 6.0,
+               bc_range: float = 15.0, ff_range: float = 15.0, max_bc_ranges: int = 12,
+               area: tuple[float, float] = (70.0, 50.0)
+               ) -> tuple[list[Update], dict[str, np.ndarray]]:
+    """The team graph of the module doc as a list of updates, plus the true positions."""
+    rng = np.random.default_rng(seed)
+    AREA = np.asarray(area, float)
+    truth: dict[str, np.ndarray] = {"base": np.zeros(3)}
+    # the teams enter through doors spread along the outer walls, surveyed from the base
+    doors = rng.uniform(0, 2 * AREA.sum(), agents)
+    pos = np.zeros((agents, 3))
+    heading = np.zeros(agents)
+    for a, u in enumerate(doors):
+        if u < AREA[0]:
+            pos[a, :2], heading[a] = (u, 0.5), np.pi / 2
+        elif u < AREA.sum():
+            pos[a, :2], heading[a] = (AREA[0] - 0.5, u - AREA[0]), np.pi
+        elif u < AREA.sum() + AREA[0]:
+            pos[a, :2], heading[a] = (u - AREA.sum(), AREA[1] - 0.5), -np.pi / 2
+        else:
+            pos[a, :2], heading[a] = (0.5, u - AREA.sum() - AREA[0]), 0.0
+    last = [f"ff{a}@start" for a in range(agents)]
+    crumbs: list[str] = []
+    updates: list[Update] = []
+    for a in range(agents):
+        truth[last[a]] = pos[a].copy()
+        updates.append(Update(last[a], "base", pos[a] + rng.normal(0, 0.3, 3), 0.09 * np.eye(3)))
+    sig_odo = 0.05
+    for s in range(steps):
+        for a in range(agents):
+            heading[a] += rng.normal(0, 0.35)
+            step = 0.7 * np.array([np.cos(heading[a]), np.sin(heading[a]), 0.0])
+            new = pos[a] + step
+            for k in range(2):                   # bounce off the outer walls
+                if not 0.0 <= new[k] <= AREA[k]:
+                    step[k] = -step[k]
+                    heading[a] = np.arctan2(step[1], step[0])
+            pos[a] = pos[a] + step
+            key = f"ff{a}@{s}"
+            truth[key] = pos[a].copy()
+            up = Update(key, last[a], step + rng.normal(0, sig_odo, 3), sig_odo ** 2 * np.eye(3))
+            last[a] = key
+            statics = ["base", *crumbs]
+            sp_ = np.array([truth[c] for c in statics])
+            dist = np.linalg.norm(sp_ - pos[a], axis=1)
+            near = np.argsort(dist)[:max_bc_ranges]
+            for k in near:
+                if dist[k] < ENCOUNTER_M:
+                    up.encounters.append(statics[k])
+                elif dist[k] < bc_range:
+                    up.ranges.append(_range(rng, statics[k], dist[k]))
+            if dist.min() > bc_spacing:
+                bc = f"bc{len(crumbs)}"
+                crumbs.append(bc)
+                truth[bc] = pos[a].copy()
+                up.drop = bc
+            for b in range(a):                   # the others' states of this step
+                other = f"ff{b}@{s}"
+                dd = float(np.linalg.norm(truth[other] - pos[a]))
+                if dd < ENCOUNTER_M:
+                    up.encounters.append(other)
+                elif dd < ff_range:
+                    up.ranges.append(_range(rng, other, dd))
+            updates.append(up)
+    return updates, truth
+
+
+ENC_COV = ENCOUNTER_SIGMA ** 2 * np.eye(3)
+
+
+def _range(rng: np.random.Generator, other: str, dist: float) -> tuple[str, float, float]:
+    sigma = 0.1 + 0.15 * dist
+    return other, max(0.05, dist + rng.normal(0, sigma)), sigma ** 2
+
+
+def run_ours(updates: list[Update], linear_only: bool = False
+             ) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
+    """Our incremental GEN, one timed update per firefighter step (``linear_only``: the
+    ranges left out, so that the batch BLUE is exact without iterations)."""
+    gen = GeneralizedElectricalNetwork(3)
+    gen.add_anchor("base", np.zeros(3))
+    lat = np.zeros(len(updates))
+    for k, up in enumerate(updates):
+        t0 = time.perf_counter()
+        gen.add_node(up.key)
+        gen.add_relative_position(up.key, up.parent, up.odo, up.odo_cov)
+        with gen.batch():
+            if up.ranges and not linear_only:
+                others, r, var = zip(*up.ranges)
+                gen.add_ranges([up.key] * len(r), others, r, var)
+            for other in up.encounters:
+                gen.add_relative_position(up.key, other, np.zeros(3), ENC_COV)
+            if up.drop:
+                gen.add_node(up.drop)
+                gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
+        gen.relinearize()
+        changed = changed_nodes(up)
+        if up.drop:
+            changed.append(up.drop)
+        gen.estimates_of(changed)
+        gen.covariances_of(changed)
+        lat[k] = time.perf_counter() - t0
+    return gen, lat
+
+
+def changed_nodes(up: Update) -> list[str]:
+    """The new state and every non-anchor node it measured."""
+    return list(dict.fromkeys([up.key, *(o for o, _, _ in up.ranges if o != "base"),
+                               *(o for o in up.encounters if o != "base")]))
+
+
+def time_batch(gen: GeneralizedElectricalNetwork, changed: list[str]) -> float:
+    t0 = time.perf_counter()
+    system = gen.assemble()
+    batch_blue(system, [gen.id_of(c) for c in changed])
+    return time.perf_counter() - t0
+
+
+def run_batch_sampled(updates: list[Update], every: int) -> np.ndarray:
+    """Plain sparse batch BLUE after every ``every``-th update (same graph growth; only
+    the batch solve is timed)."""
+    gen = GeneralizedElectricalNetwork(3)
+    gen.add_anchor("base", np.zeros(3))
+    out = []
+    for k, up in enumerate(updates):
+        gen.add_node(up.key)
+        gen.add_relative_position(up.key, up.parent, up.odo, up.odo_cov)
+        for other, r, var in up.ranges:
+            gen.add_range(up.key, other, r, var)
+        for other in up.encounters:
+            gen.add_relative_position(up.key, other, np.zeros(3), ENC_COV)
+        if up.drop:
+            gen.add_node(up.drop)
+            gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
+        if k % every == every - 1:
+            changed = changed_nodes(up)
+            out.append(time_batch(gen, changed))
+    return np.array(out)
+
+
+def run_gtsam(updates: list[Update], gtsam) -> dict:
+    """iSAM2 per update, then batch LM on the whole graph."""
+    keys: dict[str, int] = {}
+
+    def key(name: str) -> int:
+        return keys.setdefault(name, len(keys))
+
+    isam = gtsam.ISAM2(gtsam.ISAM2Params())
+    full = gtsam.NonlinearFactorGraph()
+    init_all = gtsam.Values()
+    est: dict[str, np.ndarray] = {"base": np.zeros(3)}
+    lat = np.zeros(len(updates))
+    base_noise = gtsam.noiseModel.Constrained.All(3)
+    first = True
+    for k, up in enumerate(updates):
+        graph = gtsam.NonlinearFactorGraph()
+        vals = gtsam.Values()
+        if first:
+            graph.add(gtsam.PriorFactorPoint3(key("base"), np.zeros(3),
+                                              gtsam.noiseModel.Isotropic.Sigma(3, 1e-6)))
+            vals.insert(key("base"), np.zeros(3))
+            first = False
+        guess = est[up.parent] + up.odo
+        vals.insert(key(up.key), guess)
+        # GTSAM's Between(a, b) measures x_b - x_a; our zeta_ij measures x_i - x_j
+        graph.add(gtsam.BetweenFactorPoint3(key(up.parent), key(up.key), up.odo,
+                                            gtsam.noiseModel.Gaussian.Covariance(up.odo_cov)))
+        for other, r, var in up.ranges:
+            graph.add(gtsam.RangeFactor3(key(up.key), key(other), r,
+                                         gtsam.noiseModel.Isotropic.Sigma(1, np.sqrt(var))))
+        for other in up.encounters:
+            graph.add(gtsam.BetweenFactorPoint3(key(up.key), key(other), np.zeros(3),
+                                                gtsam.noiseModel.Isotropic.Sigma(3, ENCOUNTER_SIGMA)))
+        if up.drop:
+            vals.insert(key(up.drop), guess)
+            graph.add(gtsam.BetweenFactorPoint3(key(up.drop), key(up.key), np.zeros(3),
+                                                gtsam.noiseModel.Isotropic.Sigma(3, 0.3)))
+        t0 = time.perf_counter()
+        isam.update(graph, vals)
+        est[up.key] = isam.calculateEstimatePoint3(key(up.key))
+        lat[k] = time.perf_counter() - t0
+        if up.drop:
+            est[up.drop] = isam.calculateEstimatePoint3(key(up.drop))
+        full.push_back(graph)
+        init_all.insert(vals)
+    del base_noise
+    final = isam.calculateEstimate()
+    t0 = time.perf_counter()
+    params = gtsam.LevenbergMarquardtParams()
+    params.setRelativeErrorTol(1e-14)
+    params.setAbsoluteErrorTol(1e-14)
+    params.setMaxIterations(500)
+    lm = gtsam.LevenbergMarquardtOptimizer(full, init_all, params).optimize()
+    batch_s = time.perf_counter() - t0
+    names = {v: k for k, v in keys.items()}
+    return {"lat": lat, "batch_s": batch_s,
+            "isam": {names[k]: final.atPoint3(k) for k in final.keys()},
+            "lm": {names[k]: lm.atPoint3(k) for k in lm.keys()}}
+
+
+def stats(lat_s: np.ndarray) -> str:
+    ms = 1e3 * np.asarray(lat_s)
+    return (f"median {np.median(ms):7.2f} ms  mean {ms.mean():7.2f} ms  "
+            f"p95 {np.percentile(ms, 95):7.2f} ms  max {ms.max():7.1f} ms")
+
+
+def max_diff(a: dict, b: dict) -> float:
+    common = [k for k in a if k in b and k != "base"]
+    return float(max(np.max(np.abs(np.asarray(a[k]) - np.asarray(b[k]))) for k in common))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--quick", action="store_true", help="smaller graph (smoke test)")
+    ap.add_argument("--batch-every", type=int, default=50,
+                    help="time the sparse batch BLUE after every Nth update")
+    args = ap.parse_args()
+    steps = 20 if args.quick else 95
+    updates, truth = make_graph(args.seed, steps=steps)
+    n_nodes = 1 + len(updates) + sum(u.drop is not None for u in updates)
+    n_edges = sum(1 + len(u.ranges) + len(u.encounters) + (u.drop is not None)
+                  for u in updates)
+    print(f"graph: {n_nodes} nodes, {n_edges} edges "
+          f"({sum(len(u.ranges) for u in updates)} ranges, "
+          f"{sum(len(u.encounters) for u in updates)} encounters), 20 agents, seed {args.seed}")
+
+    gen, lat = run_ours(updates)
+    print(f"ours (incremental GEN)     {stats(lat)}   "
+          f"[{gen.solver.rebuilds} refactorisations, {gen.relinearised} relinearisations]")
+    batch = run_batch_sampled(updates, args.batch_every)
+    print(f"sparse batch BLUE          {stats(batch)}   (every {args.batch_every}th update)")
+    inc = gen.estimates()
+    t0 = time.perf_counter()
+    iters = gen.optimize()
+    opt_s = time.perf_counter() - t0
+    opt = gen.estimates()
+    print(f"our batch solution (Gauss-Newton/LM, all ranges re-linearised): "
+          f"{1e3 * opt_s:.0f} ms, {iters} iterations")
+    print(f"incremental (ranges linearised once, re-linearised when stale) vs batch "
+          f"optimum: max |dx| = {max_diff(inc, opt):.3f} m")
+    err = np.array([np.linalg.norm(opt[k][:2] - truth[k][:2]) for k in opt if k != "base"])
+    print(f"accuracy vs truth (batch optimum): mean {err.mean():.2f} m, max {err.max():.2f} m")
+    lin, lat_lin = run_ours(updates, linear_only=True)
+    system = lin.assemble()
+    x, _ = batch_blue(system)
+    ref = {lin.key_of(n): x[k] for k, n in enumerate(system.nodes)}
+    print(f"linear edges only: incremental {stats(lat_lin)}; "
+          f"vs batch BLUE max |dx| = {max_diff(lin.estimates(), ref):.1e} m")
+
+    try:
+        import gtsam
+    except ImportError:
+        print("GTSAM: not installed (pip install gtsam) - iSAM2 / LM columns skipped")
+        return
+    g = run_gtsam(updates, gtsam)
+    print(f"GTSAM iSAM2 (update+est.)  {stats(g['lat'])}")
+    print(f"GTSAM batch LM on the final graph: {1e3 * g['batch_s']:.0f} ms")
+    print(f"final estimates: ours (batch optimum) vs GTSAM LM max |dx| = "
+          f"{max_diff(opt, g['lm']):.1e} m; ours incremental vs iSAM2 final "
+          f"{max_diff(inc, g['isam']):.3f} m; iSAM2 vs GTSAM LM {max_diff(g['isam'], g['lm']):.3f} m")
+
+
+if __name__ == "__main__":
+    main()

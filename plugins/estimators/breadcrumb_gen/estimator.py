@@ -1,0 +1,563 @@
+"""The ``breadcrumb_gen`` estimator: firefighters and breadcrumbs in one GEN (paper §IV-V).
+
+Nodes of the extended relative measurement graph (§IV-E):
+
+* the base station - an anchor at ``base_position`` (or the building's anchor ``base_id``);
+* breadcrumbs - static; a drop adds the node with a relative-position edge to the
+  dropping firefighter's state (its initial position comes from that firefighter's
+  odometry, §V-A); a kicked breadcrumb (a ``moved`` drop from the sensor, §V-C) becomes
+  a new node ``<id>#<n>`` tied to the old one by ``kick_sigma``;
+* firefighter states ``<agent>@<k>`` - one per odometry step. The last ``window`` states
+  of each firefighter stay in the graph; older ones are marginalised (DeleteNode, eq. 17).
+
+Edges: odometry steps (relative position, linear), RSSI ranges (eqs. 18-21, with the
+antennas' heights as a constant offset), encounters (the two nodes at the same place,
+linear), drops and kicks (linear). Outliers (§IV-F): a step faster than ``max_speed`` is
+physically impossible and replaced by the bare speed limit; a range whose innovation
+exceeds ``range_gate`` sigmas is dropped, one beyond ``range_weaken`` sigmas weakened
+(its variance scaled up to sit at ``range_weaken`` sigmas). A range shorter than
+``near_range_m`` - or between nodes whose estimated distance is below their relative
+uncertainty, where its direction is meaningless - enters as a zero relative position
+with the range's spread ("the nodes are within r of each other").
+
+The odometry must be in the building frame (e.g. ``dead_reckoning`` output, which places
+the INS track with the known start pose), or be rotated into it by ``odometry_heading``
+per agent: ranges and encounters fix positions relative to the base station but cannot
+observe a rotation of the whole track about it, so the initial heading is an input
+(the paper's firefighters start at the base station with a known heading).
+
+Ports: ``pose`` - one :class:`PoseEstimate` per odometry step per firefighter (the
+newest state, covariance from eq. 5); ``breadcrumbs`` - a :class:`PoseEstimate` per
+breadcrumb touched by an update (``agent`` = the breadcrumb id, ``device`` = its graph
+node), and all of them at the end; ``diagnostics``.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from firenav_framework import (BreadcrumbDrop, Estimator, Odometry, Params, PoseEstimate,
+                               Range, param)
+
+from .network import GeneralizedElectricalNetwork
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass
+class _State:
+    key: str
+    t: float
+    speed: float          # horizontal speed of the step that ended here [m/s]
+    fed: np.ndarray       # sum of the odometry steps fed to the graph up to here [m]
+
+
+@dataclass
+class _Agent:
+    states: deque = field(default_factory=deque)        # recent _State, oldest first
+    count: int = 0
+    heading_var: float = 0.0
+    psi: float = 0.0                                     # heading feedback [rad]
+    fixed: bool = False                                  # a radio edge since the last fit
+    pending: list = field(default_factory=list)          # radio/drop events waiting for a state
+    last_range: dict = field(default_factory=dict)       # node -> t of the last range used
+    warned: set = field(default_factory=set)
+
+
+class BreadcrumbGen(Estimator):
+    """Breadcrumb GEN/RMG: firefighters and breadcrumbs localised together (breadcrumb paper)."""
+
+    name = "breadcrumb_gen"
+    inputs = (Odometry, Range, BreadcrumbDrop)
+    outputs = {"pose": PoseEstimate, "breadcrumbs": PoseEstimate}
+    provides = frozenset({"relative_measurement_graph"})
+
+    class Params(Params):
+        base_id: str = param("base", description="node id of the base station (the anchor)")
+        base_position: Vec3 | None = param(None, unit="m", description="base station antenna "
+                                           "position (x, y, z), building frame; null: the "
+                                           "building's anchor base_id")
+        start_positions: dict[str, Vec3] = param({}, unit="m", description="per agent: start "
+                                                 "position; default: the odometry's own "
+                                                 "position before its first step")
+        start_sigma: float = param(0.5, unit="m", gt=0, description="start position "
+                                   "uncertainty per horizontal axis (relative to the base)")
+        odometry_heading: dict[str, float] = param({}, unit="rad", description="per agent: "
+                                                   "rotation from the odometry frame into "
+                                                   "the building frame (default 0: odometry "
+                                                   "already in the building frame)")
+        odometry_noise_per_m: float = param(0.3, ge=0, description="extra horizontal std per "
+                                            "axis per metre of step, for the INS heading "
+                                            "drift the per-step covariance leaves out")
+        max_speed: float = param(5.0, unit="m/s", gt=0, description="a step faster than this "
+                                 "is impossible and dropped (§IV-F)")
+        drop_sigma: float = param(0.3, unit="m", gt=0, description="a dropped breadcrumb lies "
+                                  "this close to the dropping foot, per horizontal axis")
+        kick_sigma: float = param(1.5, unit="m", gt=0, description="displacement of a kicked "
+                                  "breadcrumb per horizontal axis (§V-C: 1-2 m)")
+        agent_antenna_height: float = param(1.2, unit="m", ge=0, description="worn radio "
+                                            "above the foot")
+        breadcrumb_antenna_height: float = param(0.05, unit="m", ge=0, description="breadcrumb "
+                                                 "antenna above the floor")
+        use_ranges: bool = param(True, description="use RSSI ranges (false: PDR with drops "
+                                 "and encounters only)")
+        use_encounters: bool = param(True, description="use encounter events")
+        max_range_m: float = param(1.5, unit="m", gt=0, description="longer RSSI ranges are "
+                                   "not used (§V-B: ranges within 1.5 m are relatively "
+                                   "accurate; walls and the body bias longer ones)")
+        near_range_m: float = param(1.5, unit="m", gt=0, description="shorter ranges enter "
+                                    "as a zero relative position of that spread")
+        range_period: float = param(2.0, unit="s", ge=0, description="at most one range per "
+                                    "firefighter and node in this time (shadowing is "
+                                    "correlated over metres)")
+        static_samples: int = param(10, ge=1, description="readings averaged (median) into "
+                                    "the single range edge between two fixed nodes")
+        range_gate: float = param(4.0, gt=0, description="innovation [sigmas] above which a "
+                                  "range or encounter is dropped (§IV-F)")
+        range_weaken: float = param(2.0, gt=0, description="innovation [sigmas] above which a "
+                                    "range's variance is inflated (§IV-F)")
+        time_match: float = param(1.0, unit="s", gt=0, description="a radio event is tied to "
+                                  "the firefighter state nearest in time, at most this far")
+        window: int = param(30, ge=2, description="past states per firefighter kept in the "
+                            "graph; older ones are marginalised (§IV-E, eq. 17)")
+        relinearize_sigma: float = param(0.1, gt=0, description="re-linearise a range when "
+                                         "its linearisation error exceeds this many sigmas")
+        max_active_dims: int = param(600, ge=30, description="dense active set of the "
+                                     "incremental solver before refactorising")
+        heading_feedback: float = param(1.0, ge=0, le=1, description="gain of the heading "
+                                        "correction of the odometry from the graph after a "
+                                        "radio fix (0: the paper's GEN alone)")
+        heading_baseline: float = param(10.0, unit="m", gt=0, description="shortest walk "
+                                        "over the window for a heading correction")
+
+    def __init__(self, params: Params, ctx) -> None:
+        super().__init__(params, ctx)
+        p = self.params
+        self.gen = GeneralizedElectricalNetwork(3, relinearize_sigma=p.relinearize_sigma,
+                                                max_active_dims=p.max_active_dims,
+                                                hot_nodes=max(8, p.max_active_dims // 12))
+        self._agents: dict[str, _Agent] = {}
+        self._crumbs: dict[str, str] = {}             # breadcrumb id -> current graph node
+        self._static: dict[tuple[str, str], list[float]] = {}   # fixed pair -> ranges
+        self._touched: set[str] = set()
+        self._base_ready = False
+
+    # -- set-up ------------------------------------------------------------------------------
+    def start(self) -> None:
+        self._ensure_base()
+
+    def _ensure_base(self) -> None:
+        if self._base_ready:
+            return
+        p = self.params
+        pos = p.base_position
+        if pos is None:
+            try:
+                building = self.ctx.building
+            except RuntimeError:
+                raise ValueError("breadcrumb_gen needs base_position, or a building with an "
+                                 f"anchor {p.base_id!r}") from None
+            anchor = next((a for a in building.anchors if a.id == p.base_id), None)
+            if anchor is None:
+                raise ValueError(f"the building has no anchor {p.base_id!r}; set "
+                                 "base_position")
+            pos = anchor.position
+        self.gen.add_anchor(p.base_id, np.asarray(pos, float))
+        self._base_ready = True
+
+    def reset(self, agent: str) -> None:
+        st = self._agents.pop(agent, None)
+        if st is not None:
+            for s in st.states:
+                if s.key in self.gen:
+                    self.gen.delete_node(s.key)
+
+    # -- input ---------------------------------------------------------------------------------
+    def handle(self, stream: str, msg) -> None:
+        if isinstance(msg, Odometry):
+            self._odometry(msg)
+        elif isinstance(msg, Range):
+            self._radio(msg)
+        elif isinstance(msg, BreadcrumbDrop):
+            self._drop(msg)
+
+    def _agent(self, agent: str) -> _Agent:
+        st = self._agents.get(agent)
+        if st is None:
+            st = self._agents[agent] = _Agent()
+        return st
+
+    # -- odometry: a new firefighter state ---------------------------------------------------------
+    def _odometry(self, msg: Odometry) -> None:
+        p = self.params
+        problem = _odometry_problem(msg)
+        if problem:
+            self.ctx.count("odometry_skipped")
+            self._warn(msg.agent, msg.t, "bad_odometry", f"odometry skipped: {problem}")
+            return
+        st = self._agent(msg.agent)
+        if st.states and msg.t <= st.states[-1].t:
+            self.ctx.count("odometry_out_of_order")
+            return
+        rot = _rotation(p.odometry_heading.get(msg.agent, 0.0) + st.psi)
+        delta = rot @ np.asarray(msg.delta, float)
+        cov = rot @ np.asarray(msg.cov, float)[:3, :3] @ rot.T
+        dt = max(msg.t - msg.t_start, 1e-3)
+        step = float(np.hypot(delta[0], delta[1]))
+        with self.gen.batch():
+            if not st.states:
+                self._first_state(msg, st, rot, delta)
+            prev = st.states[-1]
+            key = f"{msg.agent}@{st.count}"
+            st.count += 1
+            self.gen.add_node(key)
+            if step / dt > p.max_speed:                 # §IV-F: physically impossible
+                self.ctx.count("odometry_too_fast")
+                self._warn(msg.agent, msg.t, "odometry_too_fast",
+                           f"a step of {step:.1f} m in {dt:.2f} s is faster than "
+                           f"{p.max_speed:g} m/s: replaced by the speed limit")
+                delta = np.zeros(3)
+                cov = np.diag([(p.max_speed * dt) ** 2] * 2 + [0.25])
+            else:
+                extra = (p.odometry_noise_per_m * step) ** 2
+                cov = cov + np.diag([extra, extra, 0.0]) + np.eye(3) * 1e-6
+            self.gen.add_relative_position(key, prev.key, delta, cov)
+            st.states.append(_State(key, msg.t, step / dt, prev.fed + delta))
+            st.heading_var += float(np.asarray(msg.cov)[3, 3])
+            self._release(msg.agent, st, final=False)
+        self.gen.relinearize()
+        self._heading_feedback(st)
+        self._forget_old(st)
+        self._publish_pose(msg, st, rot)
+        self._publish_touched(msg.t)
+
+    def _first_state(self, msg: Odometry, st: _Agent, rot: np.ndarray, delta: np.ndarray) -> None:
+        p = self.params
+        start = p.start_positions.get(msg.agent)
+        if start is None:
+            start = rot @ (np.asarray(msg.position, float) - np.asarray(msg.delta, float))
+        start = np.asarray(start, float)
+        key = f"{msg.agent}@start"
+        self.gen.add_node(key)
+        base = self.gen.estimate(p.base_id)
+        self.gen.add_relative_position(key, p.base_id, start - base,
+                                       np.diag([p.start_sigma ** 2] * 2 + [0.1 ** 2]))
+        st.states.append(_State(key, msg.t_start, 0.0, np.zeros(3)))
+
+    def _heading_feedback(self, st: _Agent) -> None:
+        """Turn the agent's future odometry by the rotation between the odometry fed over
+        the window and the graph's estimate of the same states (after a radio fix).
+
+        Not in the paper: its GEN treats steps as independent, while an INS mostly errs
+        by a slowly drifting heading, which bends whole stretches of track. Between two
+        fixes the BLUE bends the chain back; that bend is the heading error, and turning
+        the next steps by it (gain ``heading_feedback``) stops the drift from growing.
+        """
+        p = self.params
+        if not (st.fixed and p.heading_feedback > 0 and len(st.states) >= 3):
+            return
+        st.fixed = False
+        keys = [s.key for s in st.states]
+        fed = np.array([s.fed[:2] for s in st.states])
+        a = fed - fed.mean(axis=0)
+        if float(np.hypot(*(fed[-1] - fed[0]))) < p.heading_baseline:
+            return
+        b = self.gen.estimates_of(keys)[:, :2]
+        b = b - b.mean(axis=0)
+        phi = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])),
+                         float(np.sum(a * b)))
+        st.psi += p.heading_feedback * phi
+
+    def _forget_old(self, st: _Agent) -> None:
+        """Marginalise states beyond the window (§IV-E, DeleteNode eq. 17)."""
+        while len(st.states) > self.params.window:
+            old = st.states.popleft()
+            self.gen.delete_node(old.key)
+
+    # -- radio -------------------------------------------------------------------------------------
+    def _radio(self, msg: Range) -> None:
+        p = self.params
+        if msg.method == "rssi_encounter":
+            if not p.use_encounters:
+                return
+        elif not p.use_ranges:
+            return
+        if not (math.isfinite(msg.range_m) and msg.range_m >= 0 and math.isfinite(msg.sigma_m)
+                and msg.sigma_m > 0):
+            self.ctx.count("range_invalid")
+            return
+        agents = [n for n in (msg.a, msg.b) if n in self._agents]
+        if not agents:
+            if msg.method == "rssi":
+                self._static_range(msg)
+            return
+        # wait until the firefighter has a state at or after the reading
+        self._agents[agents[0]].pending.append(msg)
+        self._release(agents[0], self._agents[agents[0]], final=False)
+
+    def _drop(self, msg: BreadcrumbDrop) -> None:
+        if msg.node_id in self._crumbs:
+            self._kicked(msg)
+            return
+        if not msg.agent:
+            self.ctx.count("drop_without_agent")
+            return
+        st = self._agent(msg.agent)
+        st.pending.append(msg)
+        self._release(msg.agent, st, final=False)
+
+    def _release(self, agent: str, st: _Agent, final: bool) -> None:
+        """Apply the waiting events of ``agent`` whose time the state chain now covers."""
+        if not st.states:
+            return
+        t_last = st.states[-1].t
+        ready = [e for e in st.pending if e.t <= t_last or final]
+        if not ready:
+            return
+        st.pending = [e for e in st.pending if not (e.t <= t_last or final)]
+        with self.gen.batch():
+            for ev in sorted(ready, key=lambda e: e.t):
+                if isinstance(ev, BreadcrumbDrop):
+                    self._apply_drop(ev, st)
+                else:
+                    self._apply_radio(ev, agent, st)
+
+    def _state_at(self, st: _Agent, t: float) -> _State | None:
+        best = min(st.states, key=lambda s: abs(s.t - t))
+        return best if abs(best.t - t) <= self.params.time_match else None
+
+    def _node_of(self, node: str, t: float) -> tuple[str, float, float] | None:
+        """(graph node, antenna height, extra horizontal variance) of a radio node at ``t``."""
+        p = self.params
+        if node == p.base_id:
+            return node, 0.0, 0.0
+        if node in self._crumbs:
+            return self._crumbs[node], p.breadcrumb_antenna_height, 0.0
+        st = self._agents.get(node)
+        if st is None or not st.states:
+            return None
+        s = self._state_at(st, t)
+        if s is None:
+            return None
+        return s.key, p.agent_antenna_height, (s.speed * (s.t - t)) ** 2
+
+    def _apply_radio(self, msg: Range, agent: str, st: _Agent) -> None:
+        p = self.params
+        a = self._node_of(msg.a, msg.t)
+        b = self._node_of(msg.b, msg.t)
+        if a is None or b is None:
+            self.ctx.count("radio_unmatched")
+            return
+        if msg.method == "rssi_encounter":
+            self._encounter(msg, a, b)
+            return
+        other = msg.b if msg.a == agent else msg.a
+        if msg.t - st.last_range.get(other, -math.inf) < p.range_period:
+            self.ctx.count("range_thinned")
+            return
+        if msg.range_m > p.max_range_m:
+            self.ctx.count("range_too_long")
+            return
+        st.last_range[other] = msg.t
+        self._range(msg, a, b)
+
+    def _encounter(self, msg: Range, a, b) -> None:
+        (na, _, va), (nb, _, vb) = a, b
+        var = msg.sigma_m ** 2 + va + vb
+        cov = np.diag([var, var, 0.3 ** 2])
+        if not self._gate_position(na, nb, np.zeros(3), cov, "encounter"):
+            return
+        self.gen.add_relative_position(na, nb, np.zeros(3), cov)
+        self.ctx.count("encounters_used")
+        self._touch(na, nb)
+
+    def _gate_position(self, na: str, nb: str, zeta: np.ndarray, cov: np.ndarray,
+                       what: str) -> bool:
+        """§IV-F: drop a relative position whose innovation is beyond ``range_gate``."""
+        x = self.gen.estimates_of([na, nb])
+        joint = self._relative_cov(na, nb)
+        innov = zeta - (x[0] - x[1])
+        S = joint[:2, :2] + cov[:2, :2]
+        m2 = float(innov[:2] @ np.linalg.solve(S, innov[:2]))
+        if m2 > self.params.range_gate ** 2 * 2:
+            self.ctx.count(f"{what}_outliers")
+            return False
+        return True
+
+    def _relative_cov(self, na: str, nb: str) -> np.ndarray:
+        """Covariance (3, 3) of x_a - x_b."""
+        free = [n for n in (na, nb) if not self.gen.is_anchor(n)]
+        if not free:
+            return np.zeros((3, 3))
+        C = self.gen.joint_covariance(free)
+        if len(free) == 1:
+            return C
+        return C[:3, :3] + C[3:, 3:] - C[:3, 3:] - C[3:, :3]
+
+    def _range(self, msg: Range, a, b) -> None:
+        p = self.params
+        (na, ha, va), (nb, hb, vb) = a, b
+        off = np.array([0.0, 0.0, ha - hb])
+        var = msg.sigma_m ** 2 + va + vb
+        x = self.gen.estimates_of([na, nb])
+        diff = x[0] - x[1] + off
+        pred = float(np.linalg.norm(diff))
+        rel = self._relative_cov(na, nb)
+        spread = math.sqrt(max(rel[0, 0] + rel[1, 1], 0.0))
+        if msg.range_m < p.near_range_m or pred < spread:
+            # the direction is meaningless here: "within r of each other"
+            horiz = max(msg.range_m ** 2 - (ha - hb) ** 2, 0.0)
+            v = horiz / 2.0 + var
+            cov = np.diag([v, v, 0.3 ** 2])
+            if self._gate_position(na, nb, np.zeros(3), cov, "range"):
+                self.gen.add_relative_position(na, nb, np.zeros(3), cov)
+                self.ctx.count("ranges_near")
+                self._touch(na, nb)
+            return
+        h = diff / pred
+        innov = msg.range_m - pred
+        S = float(h @ rel @ h) + var
+        z = abs(innov) / math.sqrt(S)
+        if z > p.range_gate:
+            self.ctx.count("range_outliers")
+            return
+        if z > p.range_weaken:                          # §IV-F: weaken a noisy one
+            var *= (z / p.range_weaken) ** 2
+            self.ctx.count("ranges_weakened")
+        self.gen.add_range(na, nb, msg.range_m, var, offset=off)
+        self.ctx.count("ranges_used")
+        self._touch(na, nb, fix=False)
+
+    def _static_range(self, msg: Range) -> None:
+        """Between two fixed nodes: one edge from the median of ``static_samples`` readings
+        (their shadowing is fixed, so more readings would not add information)."""
+        p = self.params
+        fixed = [n for n in (msg.a, msg.b) if n == p.base_id or n in self._crumbs]
+        if len(fixed) < 2:
+            self.ctx.count("radio_unmatched")
+            return
+        na, nb = self._crumbs.get(msg.a, msg.a), self._crumbs.get(msg.b, msg.b)
+        pair = tuple(sorted((na, nb)))
+        got = self._static.setdefault(pair, [])
+        if len(got) >= p.static_samples:
+            return
+        got.append(msg.range_m)
+        if len(got) < p.static_samples:
+            return
+        r = float(np.median(got))
+        if r > p.max_range_m or not (self.gen.is_localised(na) and self.gen.is_localised(nb)):
+            return
+        sigma = msg.sigma_m * r / max(msg.range_m, 1e-6)
+        ha = 0.0 if na == p.base_id else p.breadcrumb_antenna_height
+        hb = 0.0 if nb == p.base_id else p.breadcrumb_antenna_height
+        fake = Range(t=msg.t, a=na, b=nb, range_m=r, sigma_m=sigma, method="rssi")
+        with self.gen.batch():
+            self._range(fake, (na, ha, 0.0), (nb, hb, 0.0))
+        self.gen.relinearize()
+
+    # -- breadcrumbs -----------------------------------------------------------------------------
+    def _apply_drop(self, msg: BreadcrumbDrop, st: _Agent) -> None:
+        s = self._state_at(st, msg.t)
+        if s is None:
+            s = min(st.states, key=lambda q: abs(q.t - msg.t))
+            self.ctx.count("drop_time_unmatched")
+        v = self.params.drop_sigma ** 2 + (s.speed * (s.t - msg.t)) ** 2
+        self.gen.add_node(msg.node_id)
+        self.gen.add_relative_position(msg.node_id, s.key, np.zeros(3), np.diag([v, v, 0.05]))
+        self._crumbs[msg.node_id] = msg.node_id
+        self._touch(msg.node_id)
+
+    def _kicked(self, msg: BreadcrumbDrop) -> None:
+        """A breadcrumb moved (§V-C): a new node, tied to the old one by ``kick_sigma``."""
+        old = self._crumbs[msg.node_id]
+        n = 1 + sum(1 for k in self._crumbs.values() if k.startswith(f"{msg.node_id}#"))
+        new = f"{msg.node_id}#{n}"
+        k = self.params.kick_sigma ** 2
+        self.gen.add_node(new)
+        self.gen.add_relative_position(new, old, np.zeros(3), np.diag([k, k, 0.05]))
+        self._crumbs[msg.node_id] = new
+        for pair in [pr for pr in self._static if old in pr]:
+            del self._static[pair]                       # its fixed links start afresh
+        self.ctx.count("breadcrumbs_relocated")
+        self.ctx.diagnose(msg.t, "info", "breadcrumb_relocated",
+                          f"breadcrumb {msg.node_id} moved: tracked as a new node {new}")
+
+    # -- output ---------------------------------------------------------------------------------
+    def _touch(self, *nodes: str, fix: bool = True) -> None:
+        """Note nodes changed by this update; ``fix``: a position fix of the firefighter
+        (an encounter or a near range), which triggers the heading feedback."""
+        self._touched.update(nodes)
+        if not fix:
+            return
+        for n in nodes:
+            agent = n.rsplit("@", 1)[0] if "@" in n else None
+            if agent in self._agents:
+                self._agents[agent].fixed = True
+
+    def _publish_pose(self, msg: Odometry, st: _Agent, rot: np.ndarray) -> None:
+        key = st.states[-1].key
+        x = self.gen.estimates_of([key])[0]
+        c = self.gen.covariances_of([key])[0]
+        cov = np.zeros((4, 4))
+        cov[:3, :3] = c
+        cov[3, 3] = st.heading_var
+        heading = math.atan2(math.sin(msg.heading + math.atan2(rot[1, 0], rot[0, 0])),
+                             math.cos(msg.heading + math.atan2(rot[1, 0], rot[0, 0])))
+        self.ctx.publish("pose", PoseEstimate(t=msg.t, agent=msg.agent, device=msg.device,
+                                              position=x, heading=heading, cov=cov))
+
+    def _publish_touched(self, t: float) -> None:
+        crumbs = {node: bc for bc, node in self._crumbs.items()}
+        nodes = [n for n in self._touched if n in crumbs]
+        self._touched.clear()
+        self._publish_crumbs(t, nodes, crumbs)
+
+    def _publish_crumbs(self, t: float, nodes: list[str], crumbs: dict[str, str]) -> None:
+        if not nodes:
+            return
+        nodes = sorted(nodes)
+        x = self.gen.estimates_of(nodes)
+        c = self.gen.covariances_of(nodes)
+        for k, node in enumerate(nodes):
+            cov = np.zeros((4, 4))
+            cov[:3, :3] = c[k]
+            cov[3, 3] = math.pi ** 2
+            self.ctx.publish("breadcrumbs", PoseEstimate(
+                t=t, agent=crumbs[node], device=node, position=x[k], heading=0.0, cov=cov))
+
+    def finish(self) -> None:
+        for agent, st in self._agents.items():
+            self._release(agent, st, final=True)
+        t = max((st.states[-1].t for st in self._agents.values() if st.states), default=0.0)
+        crumbs = {node: bc for bc, node in self._crumbs.items()}
+        self._publish_crumbs(t, list(crumbs), crumbs)
+        self.ctx.count("graph_rebuilds", self.gen.solver.rebuilds)
+
+    def _warn(self, agent: str, t: float, code: str, text: str) -> None:
+        st = self._agent(agent)
+        if code not in st.warned:
+            st.warned.add(code)
+            self.ctx.diagnose(t, "warning", code, text, agent=agent)
+
+
+def _rotation(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _odometry_problem(msg: Odometry) -> str:
+    """Why an Odometry message cannot be used ('' when it can)."""
+    delta = np.asarray(msg.delta, float)
+    if delta.shape != (3,) or not np.all(np.isfinite(delta)):
+        return "delta is not 3 finite numbers"
+    if not (math.isfinite(msg.t) and math.isfinite(msg.t_start) and msg.t_start <= msg.t):
+        return "bad step times"
+    cov = np.asarray(msg.cov, float)
+    if not np.all(np.isfinite(cov)) or np.any(np.diag(cov) < 0):
+        return "covariance not finite or negative"
+    if not (math.isfinite(msg.heading) and np.all(np.isfinite(msg.position))):
+        return "non-finite absolute pose"
+    return ""

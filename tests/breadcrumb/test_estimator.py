@@ -1,0 +1,177 @@
+"""breadcrumb_gen on synthetic walks: encounters bound PDR drift, exact marginalisation
+window (§IV-E), speed outliers (§IV-F), kicked breadcrumbs (§V-C), bad input."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firenav_framework import BreadcrumbDrop, Odometry, Range
+from firenav_framework.testing import check_plugin, make_component, run_component
+from firenav_plugins.estimators.breadcrumb_gen import BreadcrumbGen
+
+BASE = np.array([0.0, 0.0, 1.0])
+CRUMBS = {"bc1": (20.0, 0.0), "bc2": (40.0, 5.0), "bc3": (20.0, 10.0), "bc4": (0.0, 5.0)}
+
+
+def loop_path(laps: int) -> np.ndarray:
+    """True foot positions, 1 m apart, around a 40 m x 10 m loop from the base corner."""
+    corners = np.array([[0, 0], [40, 0], [40, 10], [0, 10], [0, 0]], float)
+    pts = [corners[0]]
+    for _ in range(laps):
+        for a, b in zip(corners[:-1], corners[1:]):
+            n = int(np.linalg.norm(b - a))
+            pts.extend(a + (b - a) * k / n for k in range(1, n + 1))
+    return np.c_[np.array(pts), np.zeros(len(pts))]
+
+
+def walk(laps: int = 3, drift_deg_per_lap: float = 10.0, seed: int = 0, kick: bool = False):
+    """(messages, truth (N, 3) at the step times, step times) of one firefighter."""
+    rng = np.random.default_rng(seed)
+    truth = loop_path(laps)
+    t = np.arange(len(truth), dtype=float) + 10.0
+    psi = np.radians(drift_deg_per_lap) * np.arange(len(truth)) / 100.0
+    msgs = []
+    odo_pos = truth[0].copy()
+    crumbs = dict(CRUMBS)
+    dropped = set()
+    for k in range(1, len(truth)):
+        d = truth[k] - truth[k - 1]
+        c, s = math.cos(psi[k]), math.sin(psi[k])
+        dm = np.array([c * d[0] - s * d[1], s * d[0] + c * d[1], 0.0]) + rng.normal(0, 0.02, 3)
+        odo_pos = odo_pos + dm
+        msgs.append(("odo", Odometry(t=t[k], agent="ff1", device="ff1/ins", t_start=t[k - 1],
+                                     delta=dm, dheading=0.0, cov=np.diag([4e-4] * 3 + [1e-4]),
+                                     position=odo_pos.copy(), heading=0.0)))
+        if kick and t[k] == 250.0:
+            crumbs["bc1"] = (21.5, 0.0)
+            msgs.append(("moved", BreadcrumbDrop(t=t[k], node_id="bc1", device="kick_detector")))
+        for bc, xy in crumbs.items():
+            if np.hypot(*(truth[k, :2] - xy)) < 0.6:
+                if bc not in dropped:
+                    dropped.add(bc)
+                    msgs.append(("drops", BreadcrumbDrop(t=t[k], agent="ff1",
+                                                         device="ff1/dispenser", node_id=bc)))
+                else:
+                    msgs.append(("enc", Range(t=t[k], agent="ff1", a="ff1", b=bc, range_m=0.8,
+                                              sigma_m=1.0, method="rssi_encounter")))
+        if np.hypot(*(truth[k, :2] - BASE[:2])) < 0.6:
+            msgs.append(("enc", Range(t=t[k], agent="ff1", a="ff1", b="base", range_m=1.2,
+                                      sigma_m=1.0, method="rssi_encounter")))
+    return msgs, truth[1:], t[1:]
+
+
+PARAMS = {"base_position": BASE.tolist(), "odometry_noise_per_m": 0.3, "heading_feedback": 1.0}
+
+
+def errors(rec, truth):
+    poses = rec.on("pose")
+    est = np.array([p.position for p in poses])
+    return np.hypot(*(est[:, :2] - truth[:, :2]).T)
+
+
+def pdr_errors(msgs, truth):
+    odo = np.array([m.position for s, m in msgs if s == "odo"])
+    return np.hypot(*(odo[:, :2] - truth[:, :2]).T)
+
+
+def test_encounters_bound_the_drift_of_pdr():
+    msgs, truth, _ = walk()
+    rec = run_component(BreadcrumbGen, PARAMS, msgs)
+    gen, pdr = errors(rec, truth), pdr_errors(msgs, truth)
+    assert len(gen) == len(truth)
+    assert pdr[-1] > 8.0                          # the drifting PDR ends far off
+    assert gen.mean() < 0.75 * pdr.mean() and gen.max() < 0.75 * pdr.max()
+    assert gen[-1] < 0.3 * pdr[-1]
+    crumbs = {p.agent: p for p in rec.on("breadcrumbs")}
+    assert set(crumbs) == set(CRUMBS)
+    # breadcrumbs start at the dropping firefighter's PDR position (drifting) and are
+    # pulled by every later encounter: they stay within a few metres
+    final = np.array([np.hypot(*(crumbs[bc].position[:2] - xy)) for bc, xy in CRUMBS.items()])
+    assert final.mean() < 3.5 and final.max() < 6.0
+    assert all(crumbs[bc].cov[0, 0] > 0 for bc in CRUMBS)
+
+
+def test_marginalisation_window_is_exact_for_linear_edges():
+    """§IV-E: deleting old states (eq. 17) changes nothing for linear edges: a window of 3
+    states gives the same poses as keeping every state (the paper's GEN: no heading
+    feedback, which looks at the window)."""
+    msgs, truth, _ = walk(laps=2)
+    paper = {**PARAMS, "heading_feedback": 0.0}
+    short = run_component(BreadcrumbGen, {**paper, "window": 3}, msgs)
+    full = run_component(BreadcrumbGen, {**paper, "window": 100000}, msgs)
+    a = np.array([p.position for p in short.on("pose")])
+    b = np.array([p.position for p in full.on("pose")])
+    np.testing.assert_allclose(a, b, atol=1e-8)
+    ca = np.array([p.cov for p in short.on("pose")])
+    cb = np.array([p.cov for p in full.on("pose")])
+    np.testing.assert_allclose(ca, cb, atol=1e-8)
+
+
+def test_graph_keeps_only_the_window_of_states():
+    msgs, _, _ = walk(laps=1)
+    comp, _, _ = make_component(BreadcrumbGen, {**PARAMS, "window": 5})
+    comp.start()
+    for s, m in msgs:
+        comp.handle(s, m)
+    states = [k for k in comp.gen.nodes if str(k).startswith("ff1@")]
+    assert len(states) == 5
+
+
+def test_impossible_speed_is_dropped():
+    """§IV-F: a 30 m step in one second is physically impossible (> 5 m/s)."""
+    msgs, truth, _ = walk(laps=1, drift_deg_per_lap=0.0)
+    k = next(i for i, (s, m) in enumerate(msgs) if s == "odo" and i >= 20)
+    s, bad = msgs[k]
+    msgs[k] = (s, Odometry(t=bad.t, agent="ff1", t_start=bad.t_start, delta=bad.delta + [30, 0, 0],
+                           dheading=0.0, cov=bad.cov, position=bad.position, heading=0.0))
+    comp, rec, stats = make_component(BreadcrumbGen, PARAMS)
+    comp.start()
+    for s, m in msgs:
+        comp.handle(s, m)
+    assert stats.counts["under_test"]["odometry_too_fast"] == 1
+    est = np.array([p.position for p in rec.on("pose")])
+    assert np.max(np.hypot(*(est[:, :2] - truth[:len(est), :2]).T)) < 6.0
+    assert any(d.code == "odometry_too_fast" for d in rec.on("diagnostics"))
+
+
+def test_kicked_breadcrumb_becomes_a_new_node():
+    """§V-C: after a kick (1.5 m) the breadcrumb is re-estimated at its new place."""
+    msgs, truth, _ = walk(laps=4, drift_deg_per_lap=2.0, kick=True)
+    rec = run_component(BreadcrumbGen, PARAMS, msgs)
+    last = [p for p in rec.on("breadcrumbs") if p.agent == "bc1"][-1]
+    assert last.device == "bc1#1"
+    assert np.hypot(*(last.position[:2] - (21.5, 0.0))) < 1.2
+    assert any(d.code == "breadcrumb_relocated" for d in rec.on("diagnostics"))
+
+
+def test_bad_input_is_counted_not_raised():
+    msgs, _, _ = walk(laps=1)
+    odo = msgs[0][1]
+    comp, rec, stats = make_component(BreadcrumbGen, PARAMS)
+    comp.start()
+    comp.handle("odo", Odometry(t=1.0, agent="ff1", t_start=0.5, delta=np.array([np.nan, 0, 0]),
+                                dheading=0.0, cov=odo.cov, position=odo.position, heading=0.0))
+    for s, m in msgs[:20]:
+        comp.handle(s, m)
+    comp.handle("r", Range(t=25.0, agent="ff1", a="ff1", b="nobody", range_m=2.0, sigma_m=0.5,
+                           method="rssi"))
+    comp.handle("r", Range(t=25.0, agent="ff1", a="ff1", b="base", range_m=-2.0, sigma_m=0.5,
+                           method="rssi"))
+    comp.handle(*msgs[20])
+    comp.finish()
+    c = stats.counts["under_test"]
+    assert c["odometry_skipped"] == 1 and c["radio_unmatched"] == 1 and c["range_invalid"] == 1
+    assert len(rec.on("pose")) == sum(s == "odo" for s, _ in msgs[:21])
+
+
+def test_needs_a_base_position():
+    comp, _, _ = make_component(BreadcrumbGen, {})
+    with pytest.raises(ValueError, match="base_position"):
+        comp.start()
+
+
+def test_conforms_to_the_plugin_contract():
+    msgs, _, _ = walk(laps=1)
+    check_plugin(BreadcrumbGen, PARAMS, sample_input=[m for m in msgs[:30]])
