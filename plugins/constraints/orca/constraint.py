@@ -37,6 +37,12 @@ corridor tests worse than the INS alone, see benchmarks/bench_orca_corridor.py):
 * ``min_step``: a move shorter than this (a shuffle while standing at a check point)
   is only held at the wall; its direction means nothing.
 
+With ``avoid_team`` the firefighters are ORCA agents among themselves (reciprocal
+half-planes, each other's latest position extrapolated to the step time): a step that
+only a team member is in the way of is deflected, never read as a heading error or a
+door. Meant for firefighters moving independently; a team holding on to each other
+(following a step behind) is in constant "collision" and should leave it off.
+
 ``rotation_from: heading`` stores the rotation of the INS velocity along its heading
 rather than of the step (which sways from stride to stride).
 
@@ -152,8 +158,9 @@ class OrcaConstraint(Constraint):
                                        "only if its expected range to each anchor is within "
                                        "this of the measured range (plus 3 sigma)")
         turn_guard: float | None = param(math.radians(30.0), unit="rad", gt=0, description=
-                                         "no rotation is stored while the INS heading turned "
-                                         "more than this over the last two steps (null: off)")
+                                         "no rotation is stored while the INS heading or the "
+                                         "step direction turned more than this over the last "
+                                         "two steps (null: off)")
         rotation_from: Literal["step", "heading"] = param(
             "step", description="velocity whose ORCA rotation is stored: 'step' = the step "
             "from the agent to the INS position (eq. 7, Figure 4); 'heading' = the same speed "
@@ -224,14 +231,17 @@ class OrcaConstraint(Constraint):
                                                     *self._team(step))
         if code == FREE:
             return self._record(me, step, None)
+        if wall < 0:
+            # only team members in the way: avoid them; they say nothing about heading
+            return self._record(me, step, StepCorrection(
+                position=_with_z(pos + step.dt * v_orca, step), event="orca_team"))
         move = target - pos
-        angle = theta if wall < 0 else approach_angle(move, grid.segs[wall])
-        kind = classify_rotation(angle, p.min_rotation, p.max_rotation, p.door_angle,
-                                 p.door_tolerance)
+        kind = classify_rotation(approach_angle(move, grid.segs[wall]), p.min_rotation,
+                                 p.max_rotation, p.door_angle, p.door_tolerance)
         if math.hypot(move[0], move[1]) < p.min_step:
             kind = "blocked"
         if kind == "door":
-            fix = self._door(me, step, floor_idx, grid, pos, move, wall) if wall >= 0 else None
+            fix = self._door(me, step, floor_idx, grid, pos, move, wall)
             if fix is not None:
                 return self._record(me, step, fix)
             kind = "blocked"
@@ -320,8 +330,9 @@ class OrcaConstraint(Constraint):
                 continue
             if abs(other.end[2] - step.prev[2]) > 1.5:      # not on the same floor
                 continue
-            pos.append(other.end[:2])
-            vel.append((other.end[:2] - other.start[:2]) / other.dt)
+            v = (other.end[:2] - other.start[:2]) / other.dt
+            pos.append(other.end[:2] + v * (step.t - other.t))   # where it is by now
+            vel.append(v)
         n = min(len(pos), MAX_TEAM)
         return (np.array(pos[:n], float).reshape(n, 2), np.array(vel[:n], float).reshape(n, 2),
                 np.full(n, p.radius))
