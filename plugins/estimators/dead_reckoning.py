@@ -5,9 +5,12 @@ frame, whose yaw and origin are arbitrary) into poses in the building frame:
 
 1. **Alignment** (ORCA map-matching paper, §2.2 eq. 9): the first steps are mapped from
    the INS (local) frame to the building (global) frame by a rotation and translation,
-   the *update matrix* of eq. 8. It comes from a known entry pose (parameters, or the
-   building's entrance), or from the first straight segment walked along a wall of
-   known direction.
+   the *update matrix* of eq. 8. It comes from a known entry pose (parameters, the
+   building's entrance, or - for evaluation - the simulator's true pose when the INS
+   starts), or from the first straight segment walked along a wall of known direction.
+   An entry heading is a walking direction, while a foot INS reports the yaw of its IMU
+   (toed out, mounted at an angle): the difference is estimated from the first straight
+   steps (``imu_yaw_offset``), so steps are held back until then.
 2. **Integration**: each increment moves the INS position in the local frame; the
    update matrix maps it into the building frame (the *proposed* position).
 3. **Correction**: every attached constraint (capability ``odometry_correction``) sees
@@ -28,7 +31,7 @@ the jump in their covariance).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
