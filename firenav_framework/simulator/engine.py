@@ -12,12 +12,13 @@ adding an agent does not change the others' IMU noise.
 """
 from __future__ import annotations
 
+import dataclasses
 import zlib
 from pathlib import Path
 
 import numpy as np
 
-from ..building import load_building
+from ..building import Anchor, load_building
 from ..messages import (BreadcrumbDrop, GroundTruth, Range, RssiReading, TagDeployment,
                         TagDetection)
 from .gait import FootKinematics, euler_matrix, foot_kinematics
@@ -221,6 +222,10 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
                             for t, tx, _, r, rx in readings]
 
     anchors_out = {k: {**v, "position": v["position"]} for k, v in anchors.items()}
+    # the scenario's own anchors (a UWB anchor left at the entrance) belong to the building
+    # the pipeline sees, so estimators can place the ranges measured to them
+    b = dataclasses.replace(b, anchors=[Anchor(id=k, kind=v["kind"], position=v["position"],
+                                               floor=v["floor"]) for k, v in anchors.items()])
     return SimulationResult(scenario=sc, seed=int(seed), building=b, t_end=float(t_end),
                             imu=imu, truth=truth, messages=messages, tags=tags,
                             breadcrumbs=breadcrumbs, anchors=anchors_out, extra=extra)

@@ -208,3 +208,10 @@ agents:
     assert np.abs(np.diff(dev_n, axis=0)).max(axis=1).max() < 0.5 + 20 * step.max()
     still = kin.stance[1:] & kin.stance[:-1]
     assert np.abs(np.diff(dev_n, axis=0)[still]).max() < 1e-9
+
+
+def test_scenario_anchors_are_in_the_building_the_pipeline_sees(runs):
+    b = runs["demo"].building
+    (uwb,) = [a for a in b.anchors if a.id == "uwb_entrance"]
+    np.testing.assert_allclose(uwb.position, [0.6, 4.9, 0.3])   # floor 0 at z 0, 0.3 m up
+    assert uwb.kind == "uwb" and uwb.floor == 0
