@@ -113,7 +113,8 @@ def _checksum_ok(arr: np.ndarray, i: int, pkt: bytes, tables: Dialect) -> bool:
 
 @dataclass
 class SplitResult:
-    """Packets of one buffer and what could not be used (counted as decode errors)."""
+    """Packets of one buffer and what could not be used (counted as decode errors, once
+    per damaged stretch: the bytes after a bad packet are part of the same damage)."""
 
     packets: list[bytes]
     bad_crc: int = 0    # checksum wrong, or a message id the dialect does not know
@@ -125,8 +126,9 @@ def split_packets(data: bytes, check_crc: bool = True) -> SplitResult:
     """Every packet in ``data`` (one UDP datagram, or a stream chunk known to be whole).
 
     Bytes that start no packet are skipped to the next magic byte; a packet whose CRC
-    fails (or whose id is unknown) is skipped by one byte (its magic may have been
-    noise); a packet longer than what is left is truncated.
+    fails (or whose id is unknown), or that is longer than what is left (truncated),
+    is skipped by one byte: its magic may have been noise, and a whole packet may
+    follow.
     """
     out = SplitResult([])
     n = len(data)
@@ -135,25 +137,26 @@ def split_packets(data: bytes, check_crc: bool = True) -> SplitResult:
     tables = dialect() if check_crc else None
     arr = np.frombuffer(data, np.uint8) if check_crc else None
     i = 0
-    in_garbage = False
+    damaged = False  # in bytes after a problem: counted once, until the next good packet
     while i < n:
         length = packet_length(data, i)
         if length is None:
-            if not in_garbage:
-                out.garbage += 1
-                in_garbage = True
+            out.garbage += not damaged
+            damaged = True
             i += 1
             continue
-        if length < 0 or i + length > n:
-            out.truncated += 1
-            break
+        if length < 0 or i + length > n:  # cut short, or a length byte that is noise
+            out.truncated += not damaged
+            damaged = True
+            i += 1
+            continue
         pkt = data[i:i + length]
         if check_crc and not _checksum_ok(arr, i, pkt, tables):
-            out.bad_crc += 1
+            out.bad_crc += not damaged
+            damaged = True
             i += 1
-            in_garbage = True
             continue
-        in_garbage = False
+        damaged = False
         out.packets.append(pkt)
         i += length
     return out

@@ -132,6 +132,11 @@ def test_framing_checks_the_crc_like_pymavlink():
     # garbage around packets, a message id the dialect does not know, a cut packet
     unknown = bytearray(pkt)
     unknown[7:10] = (0xFFFF00).to_bytes(3, "little")
-    res = split_packets(b"xx" + pkt + b"\x01\x02" + bytes(unknown) + pkt + pkt[:-3])
-    assert res.packets == [pkt, pkt]
+    res = split_packets(b"xx" + pkt + bytes(unknown) + pkt + b"\x01\x02" + pkt + pkt[:-3])
+    assert res.packets == [pkt, pkt, pkt]
     assert (res.garbage, res.bad_crc, res.truncated) == (2, 1, 1)
+    # a damaged stretch counts once, whatever magic bytes its payload happens to hold
+    bad = bytearray(pkt)
+    bad[12:20] = b"\xfd\x09\x00\x00\xfe\x05\xfd\xfe"
+    res = split_packets(bytes(bad) + pkt)
+    assert res.packets == [pkt] and (res.garbage, res.bad_crc, res.truncated) == (0, 1, 0)
