@@ -57,3 +57,59 @@ def test_play_sends_every_sample_as_highres_imu_per_foot(tmp_path):
     assert per == {(1, 0), (1, 1), (2, 0), (2, 1)}
     ff2 = [m for m in imu if m.get_srcSystem() == 2]
     assert ff2[0].zacc == pytest.approx(-8.81, abs=1e-4) and ff2[0].time_usec == 5000
+
+
+def test_play_a_scenario_in_the_field_live_layout(tmp_path):
+    """ff1, ff2 as CAN nodes 1 and 3 (right feet), ff3, ff4 as MAVLink systems 3 and 4."""
+    pytest.importorskip("msgpack", reason="python-can's udp_multicast needs msgpack")
+    import can
+
+    from firenav_framework.simulator import load_scenario, simulate
+
+    from .harness import SCENARIO
+    group, can_port, mav_port = "239.74.163.2", free_port(), free_port()
+    try:
+        bus = can.Bus(interface="udp_multicast", channel=group, port=can_port)
+    except can.CanInitializationError as exc:
+        pytest.skip(f"IP multicast unavailable on this machine: {exc}")
+    gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    gcs.bind(("127.0.0.1", mav_port))
+    if min(enlarge_receive_buffer(gcs), enlarge_receive_buffer(bus._multicast._socket)) < 1 << 20:
+        bus.shutdown()
+        pytest.skip("cannot get 1 MiB UDP receive buffers to hold a burst at --speed 0")
+    proc = subprocess.run([sys.executable, "-m", "firenav_framework", "play", str(SCENARIO),
+                           "--can", f"udp_multicast:{group}", "--can-option", f"port={can_port}",
+                           "--mavlink", f"udpout:127.0.0.1:{mav_port}",
+                           "--mavlink-agents", "ff3,ff4", "--duration", "1", "--speed", "0"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "ff1/imu -> CAN node 1 (ids 0x110-0x112)" in proc.stderr
+    assert "ff3/imu -> MAVLink sys3/comp1 HIGHRES_IMU id 1" in proc.stderr
+    frames = []
+    while (m := bus.recv(0.5)) is not None:
+        frames.append(m)
+    bus.shutdown()
+    parser = mavutil().mavlink.MAVLink(None)
+    gcs.settimeout(0.5)
+    msgs = []
+    try:
+        while True:
+            msgs += parser.parse_buffer(gcs.recv(65535)) or []
+    except socket.timeout:
+        pass
+    gcs.close()
+
+    sim = simulate(load_scenario(SCENARIO), 0, duration_s=1.0)
+    n = {a: len(rec.time) for a, rec in sim.imu.items()}
+    ids = {m.arbitration_id for m in frames}
+    assert ids == {0x110, 0x111, 0x112, 0x130, 0x131, 0x132}
+    assert sum(m.arbitration_id == 0x110 for m in frames) == n["ff1"]
+    assert sum(m.arbitration_id == 0x130 for m in frames) == n["ff2"]
+    for sysid, agent in ((3, "ff3"), (4, "ff4")):
+        imu = [m for m in msgs if m.get_type() == "HIGHRES_IMU" and m.get_srcSystem() == sysid]
+        rec = sim.imu[agent]
+        assert len(imu) == n[agent] and {m.id for m in imu} == {1}
+        assert [m.time_usec for m in imu] == [round(t * 1e6) for t in rec.time]
+        got = np.array([[m.xacc, m.yacc, m.zacc, m.xgyro, m.ygyro, m.zgyro] for m in imu])
+        frd = np.hstack((rec.accel, rec.gyro)) * [1, -1, -1, 1, -1, -1]  # FLU sent as FRD
+        np.testing.assert_allclose(got, frd, rtol=1e-6, atol=1e-6)
