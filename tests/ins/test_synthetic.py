@@ -94,3 +94,17 @@ def test_step_increments_sum_to_track_and_covariance_is_sane():
     # an increment's uncertainty is a step's worth, not the accumulated absolute one
     assert walking[-1].cov[0, 0] < walking[-1].cov_abs[0, 0]
     assert all(0 < s.cov[0, 0] < 1e-3 for s in walking)
+
+
+def test_step_covariance_includes_the_unmodelled_errors():
+    """A 1.2 m step lasting 1 s gets (0.05 deg/s * 1 s)^2 more heading variance and
+    (2 % of its length)^2 more variance along the step, nothing across it."""
+    from firenav_plugins.estimators.zupt_ins.steps import UnmodelledErrors
+    base = np.diag([1e-4, 1e-4, 1e-4, 1e-6])
+    delta = np.array([1.2, 0.0, 0.0])
+    cov = UnmodelledErrors().inflate(base, delta, 1.0)
+    assert cov[3, 3] == pytest.approx(1e-6 + np.radians(0.05) ** 2)
+    assert cov[0, 0] == pytest.approx(1e-4 + (0.02 * 1.2) ** 2)
+    assert cov[1, 1] == pytest.approx(1e-4) and cov[0, 1] == 0.0
+    rotated = UnmodelledErrors().inflate(base, np.array([0.0, 1.2, 0.0]), 1.0)
+    assert rotated[1, 1] == pytest.approx(cov[0, 0]) and rotated[0, 0] == pytest.approx(1e-4)

@@ -28,7 +28,7 @@ from pydantic import model_validator
 from firenav_framework import Params, param
 
 from . import detectors, eskf
-from .steps import GaitThresholds
+from .steps import GaitThresholds, UnmodelledErrors
 
 G_STANDARD = 9.80665
 DEG = math.pi / 180.0
@@ -139,6 +139,11 @@ class ZuptInsParams(Params):
                               "the resting foot labelled crawl")
     still_distance: float = param(0.05, unit="m", ge=0, description="shorter steps are "
                                   "labelled still")
+    odometry_yaw_rate_sigma: float = param(0.05 * DEG, unit="rad/s", ge=0, description=(
+        "residual gyro bias the filter does not estimate, added to each step's heading "
+        "variance as (sigma * step duration)^2"))
+    odometry_length_sigma: float = param(0.02, ge=0, lt=1, description=(
+        "relative step-length error added along each step's displacement covariance"))
 
     @model_validator(mode="after")
     def _consistent(self) -> "ZuptInsParams":
@@ -188,3 +193,7 @@ class ZuptInsParams(Params):
     def gait(self) -> GaitThresholds:
         return GaitThresholds(stair_rise=self.stair_rise, crawl_tilt=self.crawl_tilt,
                               still_distance=self.still_distance)
+
+    def unmodelled(self) -> UnmodelledErrors:
+        return UnmodelledErrors(yaw_rate_sigma=self.odometry_yaw_rate_sigma,
+                                length_sigma=self.odometry_length_sigma)

@@ -140,7 +140,7 @@ class ZuptIns(Estimator):
         devices = self.state[agent]
         dev = devices.get(device)
         if dev is None:
-            dev = devices[device] = _Device(device, StepTracker(self.params.gait()))
+            dev = devices[device] = _Device(device, StepTracker(self.params.gait(), self.params.unmodelled()))
         return dev
 
     def _new_engine(self, t: np.ndarray, msg: ImuBlock) -> InsEngine:

@@ -44,6 +44,27 @@ class GaitThresholds:
 
 
 @dataclass(frozen=True)
+class UnmodelledErrors:
+    """Errors the filter does not estimate, added to every step's increment covariance.
+
+    Without bias states the filter's heading variance grows only with gyro white noise
+    (hundredths of a degree per step), while the heading of a real foot INS drifts with
+    the residual gyro bias; step lengths carry a scale error the ZUPTs cannot see.
+    Downstream estimators weigh odometry by this covariance, so it must not be optimistic.
+    """
+
+    yaw_rate_sigma: float = math.radians(0.05)   # [rad/s] residual gyro bias about z
+    length_sigma: float = 0.02                   # [-] relative step-length error
+
+    def inflate(self, cov: np.ndarray, delta: np.ndarray, duration: float) -> np.ndarray:
+        """``cov`` (4, 4) of (dx, dy, dz, dheading) plus these errors over one step."""
+        out = cov.copy()
+        out[3, 3] += (self.yaw_rate_sigma * max(duration, 0.0)) ** 2
+        out[:3, :3] += (self.length_sigma ** 2) * np.outer(delta, delta)  # along the step
+        return out
+
+
+@dataclass(frozen=True)
 class Step:
     """One odometry increment of the INS (INS frame: ENU with arbitrary yaw origin)."""
 
@@ -69,8 +90,10 @@ class StepTracker:
     YAW_MIN_LENGTH = 0.3  # [m]
     YAW_MIN_CONCENTRATION = 0.8  # mean resultant length of the step directions
 
-    def __init__(self, gait: GaitThresholds | None = None) -> None:
+    def __init__(self, gait: GaitThresholds | None = None,
+                 unmodelled: UnmodelledErrors | None = None) -> None:
         self.gait = gait or GaitThresholds()
+        self.unmodelled = unmodelled or UnmodelledErrors()
         self.position = np.zeros(3)
         self.heading = 0.0
         self._yaw_sum = np.zeros(2)
@@ -109,9 +132,10 @@ class StepTracker:
             off = math.atan2(delta[1], delta[0]) - mid_yaw
             self._yaw_sum += (math.cos(off), math.sin(off))
             self._yaw_n += 1
-        step = Step(t=float(ev[eskf.E_T]), t_start=float(ev[eskf.E_T_PREV]), delta=delta,
-                    dheading=dheading,
-                    cov=ev[eskf.E_COV_INC:eskf.E_COV_INC + 16].reshape(4, 4).copy(),
+        t, t_start = float(ev[eskf.E_T]), float(ev[eskf.E_T_PREV])
+        step = Step(t=t, t_start=t_start, delta=delta, dheading=dheading,
+                    cov=self.unmodelled.inflate(
+                        ev[eskf.E_COV_INC:eskf.E_COV_INC + 16].reshape(4, 4), delta, t - t_start),
                     position=pos, heading=yaw,
                     cov_abs=ev[eskf.E_COV_ABS:eskf.E_COV_ABS + 16].reshape(4, 4).copy(),
                     motion=motion, tilt=tilt, swing_samples=int(ev[eskf.E_SWING_N]),
