@@ -21,8 +21,9 @@ only assigns and moves frames, and :meth:`DevicePlayer.encode` /
 """
 from __future__ import annotations
 
+import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -96,10 +97,11 @@ class Roster:
 
     @classmethod
     def of_scenario(cls, scenario: Any, mavlink_agents: set[str] | None = None) -> "Roster":
-        """The scenario's agents in file order, each IMU on the foot the scenario names."""
-        agents = [a for a in scenario.model.agents if a.sensors.imu is not None]
+        """The scenario's agents in file order (those without an IMU keep their place),
+        each IMU on the foot the scenario names."""
+        agents = scenario.model.agents
         return cls(order=[a.id for a in agents],
-                   feet={f"{a.id}/imu": a.person.foot for a in agents},
+                   feet={f"{a.id}/imu": a.person.foot for a in agents if a.sensors.imu},
                    mavlink_agents=mavlink_agents)
 
     def assign(self, agent: str, device: str) -> Assignment:
@@ -186,10 +188,11 @@ class DevicePlayer:
         return n
 
     def play(self, blocks: Iterable[ImuBlock], roster: Roster | None = None,
-             stop: Any = None, on_assign: Any = None) -> None:
+             stop: threading.Event | None = None,
+             on_assign: Callable[[str, Assignment], None] | None = None) -> None:
         """Pace and send ``blocks`` (time order); devices not yet assigned are assigned
         by ``roster`` (and reported to ``on_assign(device, assignment)``). Ends early
-        when ``stop`` (a ``threading.Event``) is set."""
+        when ``stop`` is set."""
         for block in blocks:
             if stop is not None and stop.is_set():
                 return

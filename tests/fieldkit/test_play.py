@@ -113,3 +113,17 @@ def test_play_a_scenario_in_the_field_live_layout(tmp_path):
         got = np.array([[m.xacc, m.yacc, m.zacc, m.xgyro, m.ygyro, m.zgyro] for m in imu])
         frd = np.hstack((rec.accel, rec.gyro)) * [1, -1, -1, 1, -1, -1]  # FLU sent as FRD
         np.testing.assert_allclose(got, frd, rtol=1e-6, atol=1e-6)
+
+
+def test_team_layout_and_its_limits():
+    from firenav_framework.transports.player import Assignment, Roster, team_layout
+    roster = Roster(feet={"ff2/imu": "left"}, mavlink_agents={"ff3"})
+    assert roster.assign("ff1", "ff1/right") == Assignment("can", node=1)
+    assert roster.assign("ff1", "ff1/other") == Assignment("can", node=0)  # the free foot
+    assert roster.assign("ff2", "ff2/imu") == Assignment("can", node=2)
+    assert roster.assign("ff3", "ff3/imu") == Assignment("mavlink", sysid=3, imu_id=0)
+    with pytest.raises(ValueError, match="no place for a third"):
+        roster.assign("ff1", "ff1/hand")
+    with pytest.raises(ValueError, match="send it over MAVLink"):
+        team_layout(5, 0, over_mavlink=False)
+    assert team_layout(5, 1, over_mavlink=True) == Assignment("mavlink", sysid=5, imu_id=1)
