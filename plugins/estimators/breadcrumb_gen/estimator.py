@@ -121,7 +121,7 @@ class BreadcrumbGen(Estimator):
                                     "range's variance is inflated (§IV-F)")
         time_match: float = param(1.0, unit="s", gt=0, description="a radio event is tied to "
                                   "the firefighter state nearest in time, at most this far")
-        window: int = param(30, ge=2, description="past states per firefighter kept in the "
+        window: int = param(20, ge=2, description="past states per firefighter kept in the "
                             "graph; older ones are marginalised (§IV-E, eq. 17)")
         relinearize_sigma: float = param(0.1, gt=0, description="re-linearise a range when "
                                          "its linearisation error exceeds this many sigmas")

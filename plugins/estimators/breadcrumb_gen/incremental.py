@@ -190,7 +190,6 @@ class IncrementalBlue:
         self._grow_ids(new + 1)
         if self.is_represented(new) or new in self._hidden:
             raise ValueError(f"node {new} is already in the estimate")
-        d = self.d
         if parent is not None:
             self.activate([parent])
             pd = self._dims([parent])
@@ -208,7 +207,6 @@ class IncrementalBlue:
             sig[np.ix_(nd, nd)] = sig[np.ix_(pd, pd)] + cov
             x[nd] = x[pd] + z
         self._touch_nodes([new] if parent is None else [new, parent])
-        del d
 
     def update(self, nodes: Sequence[int], J: np.ndarray, R: np.ndarray, y: np.ndarray) -> None:
         """Add the linear(ised) measurement ``y = J x_nodes + e``, ``e ~ (0, R)``.

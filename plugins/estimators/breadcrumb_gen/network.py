@@ -37,7 +37,8 @@ import scipy.sparse as sp
 
 from .batch import BatchBlue, KirchhoffSystem, SingularNetworkError, batch_blue, factorize
 from .incremental import IncrementalBlue
-from .measurements import range_blocks, range_direction, range_linearised
+from .measurements import (range_blocks, range_direction, range_linearised,
+                           relative_position_blocks)
 
 __all__ = ["GeneralizedElectricalNetwork", "KirchhoffSystem", "batch_blue",
            "SingularNetworkError"]
@@ -618,8 +619,7 @@ class GeneralizedElectricalNetwork:
         pos = self._pos
         sel = np.flatnonzero(pos.alive[:pos.n] & pos.applied[:pos.n])
         if len(sel):
-            info = pos.info[sel]
-            add(pos.i[sel], pos.j[sel], info, np.einsum("mkl,ml->mk", info, pos.z[sel]))
+            add(pos.i[sel], pos.j[sel], *relative_position_blocks(pos.z[sel], pos.info[sel]))
         rng = self._rng
         sel = self._range_candidates(None)
         if len(sel):
