@@ -20,6 +20,11 @@ exceeds ``range_gate`` sigmas is dropped, one beyond ``range_weaken`` sigmas wea
 uncertainty, where its direction is meaningless - enters as a zero relative position
 with the range's spread ("the nodes are within r of each other").
 
+Beyond the paper (``heading_feedback``, 0 turns it off): an INS errs mostly by a drifting
+heading, which the GEN's independent step edges cannot express; after a position fix the
+rotation between the odometry fed over the window and the graph's estimate of those
+states turns the following odometry.
+
 The odometry must be in the building frame (e.g. ``dead_reckoning`` output, which places
 the INS track with the known start pose), or be rotated into it by ``odometry_heading``
 per agent: ranges and encounters fix positions relative to the base station but cannot
