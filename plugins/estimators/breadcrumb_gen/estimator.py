@@ -146,6 +146,7 @@ class BreadcrumbGen(Estimator):
                                                 hot_nodes=max(8, p.max_active_dims // 12))
         self._agents: dict[str, _Agent] = {}
         self._crumbs: dict[str, str] = {}             # breadcrumb id -> current graph node
+        self._kicks: dict[str, int] = {}              # breadcrumb id -> relocations so far
         self._static: dict[tuple[str, str], list[float]] = {}   # fixed pair -> ranges
         self._touched: set[str] = set()
         self._base_ready = False
@@ -478,8 +479,8 @@ class BreadcrumbGen(Estimator):
     def _kicked(self, msg: BreadcrumbDrop) -> None:
         """A breadcrumb moved (§V-C): a new node, tied to the old one by ``kick_sigma``."""
         old = self._crumbs[msg.node_id]
-        n = 1 + sum(1 for k in self._crumbs.values() if k.startswith(f"{msg.node_id}#"))
-        new = f"{msg.node_id}#{n}"
+        self._kicks[msg.node_id] = self._kicks.get(msg.node_id, 0) + 1
+        new = f"{msg.node_id}#{self._kicks[msg.node_id]}"
         k = self.params.kick_sigma ** 2
         self.gen.add_node(new)
         self.gen.add_relative_position(new, old, np.zeros(3), np.diag([k, k, 0.05]))
