@@ -109,9 +109,82 @@ def test_algorithm1_scores_the_walked_pattern_zero_at_the_right_end(comparison, 
     assert obs.rmse[entry] < 1e-3
     assert np.isinf(obs.rmse[2 * k + (1 if reverse else 0)]) or obs.rmse[2 * k + (1 if reverse else 0)] > 1e-3
     np.testing.assert_allclose(obs.position[entry], path[-1])
-    # Hea: the walking direction along the pattern at its end, per Algorithm 1 step 14
-    want = sub.first_heading[k] if reverse else sub.last_heading[k]
+    # Hea: the direction the walk arrives in at its end (for the left-hand entry this is
+    # Algorithm 1's Hea(eta, 1); for the right-hand one see right_hand_heading)
+    d = path[-1] - path[-2]
+    want = math.atan2(d[1], d[0])
     assert obs.heading[entry] == pytest.approx(want)
     # a particle at that node heading the walked way is scored with that entry
     e = comparison.associate(obs, path[-1][None] + 0.1, np.array([want]), np.zeros(1, int))
     assert e[0] == pytest.approx(obs.rmse[entry])
+
+
+def test_right_hand_heading_conventions():
+    sp = extract_search_patterns(small_plan().build())
+    arrival = PatternComparison(sp, 6.0)
+    paper = PatternComparison(sp, 6.0, right_hand_heading="departure")
+    sub = paper.sub
+    # left-hand entries are Algorithm 1's Hea(eta, 1) in both
+    np.testing.assert_allclose(paper.entry_heading[0::2], sub.first_heading)
+    np.testing.assert_allclose(arrival.entry_heading[0::2], sub.first_heading)
+    # right-hand: the paper's Hea(eta, 2) is the step after the last node ...
+    np.testing.assert_allclose(paper.entry_heading[1::2], sub.last_heading)
+    # ... "arrival" the step into it; they differ exactly at the corners of the walk
+    d_in = sub.points[:, -1] - sub.points[:, -2]
+    np.testing.assert_allclose(arrival.entry_heading[1::2], np.arctan2(d_in[:, 1], d_in[:, 0]))
+    corner = np.abs(np.angle(np.exp(1j * (arrival.entry_heading[1::2] - sub.last_heading)))) > 1
+    assert 0 < corner.sum() < len(sub)
+    with pytest.raises(ValueError, match="right_hand_heading"):
+        PatternComparison(sp, 6.0, right_hand_heading="sideways")
+
+
+def _step_after_walking(path_map: np.ndarray, cloud_at: np.ndarray, spread: float,
+                        building, rng) -> "object":
+    """A ParticleStep whose INS history walked ``path_map`` (seen rotated by 1 rad in the
+    INS frame) and whose 200 particles sit at ``cloud_at`` heading the way the walk ended."""
+    from firenav_framework import Odometry
+    from firenav_plugins.estimators.particle_filter import Particles, ParticleStep
+    from firenav_plugins.estimators.particle_filter.history import OdometryHistory
+
+    lead_in = path_map[:1] - (path_map[1] - path_map[0])     # walk a metre more than d
+    ins = densify(np.vstack([lead_in, path_map]), 0.25) @ rot(-1.0).T
+    h = OdometryHistory(100)
+    for k, p in enumerate(ins):
+        h.append(float(k), np.array([p[0], p[1], 0.0]), 0.0)
+    d = ins[-1] - ins[-2]
+    ins_heading = math.atan2(d[1], d[0])
+    heading_map = ins_heading + 1.0
+    n = 200
+    p = Particles.create(cloud_at + rng.normal(0, 0.05, (n, 2)), np.full(n, heading_map - ins_heading))
+    odo = Odometry(t=float(len(ins)), t_start=len(ins) - 1.0, delta=np.zeros(3), dheading=0.0,
+                   cov=np.eye(4), position=np.zeros(3), heading=ins_heading)
+    return ParticleStep(agent="ff1", t=float(len(ins)), odometry=odo, before=p.copy(), particles=p,
+                        history=h, ins_heading=ins_heading, walk_offset=0.0, rng=rng,
+                        building=building, spread_m2=spread)
+
+
+@pytest.mark.parametrize("gate, spread, where, resampled", [
+    (0.0, 0.1, "right", True),        # the paper: resample after every comparison
+    (3.0, 5.0, "right", True),        # not converged yet
+    (3.0, 0.1, "right", False),       # converged where the patterns fit: leave it alone
+    (3.0, 0.1, "wrong", True),        # converged where they do not fit: look elsewhere
+])
+def test_pseudo_observation_resampling_gate(gate, spread, where, resampled):
+    from firenav_framework.testing import make_component
+    from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcp
+
+    b = small_plan().build()
+    icp, _, stats = make_component(SearchPatternIcp, {"length_m": 6.0, "resample_above_m2": gate},
+                                   building=b)
+    icp.start()
+    path = icp.comparison.sub.points[3]                # (4.5, .5) ... round the side room
+    cloud = path[-1] if where == "right" else np.array([0.5, 2.5])
+    step = _step_after_walking(path, cloud, spread, b, np.random.default_rng(9))
+    ll = icp.log_likelihood(step)
+    assert ll is not None and ll.shape == (200,)
+    new = icp.replacements(step)
+    assert (new is not None) == resampled
+    if resampled:
+        assert len(new) == 20                           # q = 10 % of 200
+        # drawn from the pseudo-observations: mostly at the walked pattern's end
+        assert np.median(np.hypot(*(new.xy - path[-1]).T)) < 1.0

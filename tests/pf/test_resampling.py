@@ -69,3 +69,15 @@ def test_nothing_to_copy_from_leaves_the_set_alone():
     before = p.copy()
     assert replace_removed(p, np.ones(5, bool), np.random.default_rng()) == 0
     np.testing.assert_array_equal(p.logw, before.logw)
+
+
+def test_local_weight_is_the_kernel_mean_of_the_neighbours():
+    from firenav_plugins.estimators.particle_filter.particles import local_log_weight
+    p = Particles.create(np.array([[0.0, 0.0], [0.0, 0.0], [10.0, 0.0]]), np.zeros(3),
+                         floor=np.array([0, 0, 0]))
+    p.logw = np.log(np.array([0.1, 0.3, 0.6]))
+    lw = local_log_weight(p, np.array([[0.0, 0.0], [10.0, 0.0], [50.0, 0.0], [0.0, 0.0]]),
+                          np.zeros(4), np.array([0, 0, 0, 1]), 1.0, 0.5)
+    assert np.exp(lw[0]) == pytest.approx(0.2)     # mean of its two co-located neighbours
+    assert np.exp(lw[1]) == pytest.approx(0.6)
+    assert lw[2] == -np.inf and lw[3] == -np.inf     # no support there / on that floor

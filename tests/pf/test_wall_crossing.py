@@ -57,7 +57,8 @@ def random_step(building, n, rng):
 def test_exactly_the_crossing_moves_are_penalised(building, mode, penalty):
     rng = np.random.default_rng(7)
     step = random_step(building, 5000, rng)
-    wc, _, stats = make_component(WallCrossing, {"mode": mode, "factor": 0.05}, building=building)
+    wc, _, stats = make_component(WallCrossing, {"mode": mode, "factor": 0.05, "outside": "allow"},
+                                  building=building)
     ll = wc.log_likelihood(step)
     want = brute_force(building, step.before.floor, step.before.xy, step.particles.xy)
     assert 500 < want.sum() < 4500                  # both kinds are well represented
@@ -71,6 +72,17 @@ def test_exactly_the_crossing_moves_are_penalised(building, mode, penalty):
               & (step.before.xy[:, 1] < 3) & (step.particles.xy[:, 1] < 3))
     assert (upper & through_x2 & inside).sum() > 50
     assert np.all(ll[upper & through_x2 & inside] == penalty)
+
+
+def test_leaving_the_building_counts_as_crossing(building):
+    rng = np.random.default_rng(8)
+    step = random_step(building, 5000, rng)
+    wc, _, _ = make_component(WallCrossing, {}, building=building)     # outside: remove
+    crossed = brute_force(building, step.before.floor, step.before.xy, step.particles.xy)
+    end = step.particles.xy
+    outside = ~shapely.intersects_xy(shapely.box(0, 0, 8, 3), end[:, 0], end[:, 1])
+    assert (outside & ~crossed).sum() > 100          # e.g. out through the front door
+    np.testing.assert_array_equal(wc.log_likelihood(step) == -math.inf, crossed | outside)
 
 
 class Probe(ParticleConstraint):

@@ -20,10 +20,21 @@ particle i": among the entries at the node nearest the particle (the "two identi
 positions" in Pos_m: a node is the first node of one pattern and the last node of
 another; more where sequences share a node), the one whose heading is closest to
 the particle's walking direction.
+
+Heading observations. Algorithm 1 gives the left-hand entry the direction in which
+the walker *arrives* at p_eta (Hea(eta, 1) = atan2(-dp_eta)), but the right-hand
+entry the direction of the step *after* p_{eta+dN} (Hea(eta, 2) = atan2(dp_{eta+dN})).
+A particle's heading is the direction it has been walking, so at every corner of a
+right-hand walk the particle is 90 deg from both entries of its node and the choice
+between them is left to noise; when it picks the entry whose RMSE is +inf the
+particle at the true pose is eliminated. ``right_hand_heading="arrival"`` (default)
+uses the arrival direction p_{eta+dN} - p_{eta+dN-1} for the right-hand entry too;
+``"departure"`` keeps the paper's formula.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -60,7 +71,8 @@ class PatternComparison:
     """Sub-patterns of length ``length_m`` and the machinery to compare odometry with them."""
 
     def __init__(self, patterns: SearchPatterns, length_m: float = 20.0, *,
-                 max_iter: int = 30, tol: float = 1e-4):
+                 max_iter: int = 30, tol: float = 1e-4,
+                 right_hand_heading: Literal["arrival", "departure"] = "arrival"):
         self.patterns = patterns
         self.sub = patterns.subpatterns(length_m)
         self._segments = pattern_segments(self.sub.points)
@@ -71,7 +83,14 @@ class PatternComparison:
         self.entry_node[1::2] = self.sub.last_node
         self.entry_heading = np.empty(2 * k)
         self.entry_heading[0::2] = self.sub.first_heading
-        self.entry_heading[1::2] = self.sub.last_heading
+        if right_hand_heading == "arrival":
+            d = self.sub.points[:, -1] - self.sub.points[:, -2]
+            self.entry_heading[1::2] = np.arctan2(d[:, 1], d[:, 0])
+        elif right_hand_heading == "departure":
+            self.entry_heading[1::2] = self.sub.last_heading
+        else:
+            raise ValueError(f"right_hand_heading must be 'arrival' or 'departure', "
+                             f"not {right_hand_heading!r}")
         self.entry_floor = np.repeat(self.sub.floor, 2)
         self.entry_position = patterns.nodes[self.entry_node]
         # entries of every node, padded with -1: (n_nodes, max entries per node)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 import shapely
@@ -44,12 +45,26 @@ class SearchPatternIcpParams(Params):
     resample_percent: float = param(10.0, unit="%", ge=0, le=100,
                                     description="q: share of lowest-weight particles replaced "
                                     "by pseudo-observations after each comparison (0 = off)")
+    resample_above_m2: float = param(0.0, unit="m^2", ge=0,
+                                     description="gate: resample from pseudo-observations only "
+                                     "while the cloud's var_x + var_y exceeds this or its fit is "
+                                     "worse than misfit_m (0: always, the paper)")
+    misfit_m: float = param(0.2, unit="m", gt=0,
+                            description="gate: also resample while the cloud explains the "
+                            "odometry worse than the best pseudo-observation by this ICP RMSE")
+    misfit_smoothing: float = param(0.3, gt=0, le=1,
+                                    description="gate: weight of the newest comparison in the "
+                                    "smoothed fit (exponential smoothing)")
     resample_position_sigma_m: float = param(0.5, unit="m", ge=0,
                                              description="noise on resampled positions (§V-B)")
     resample_heading_sigma_deg: float = param(25.0, unit="deg", ge=0,
                                               description="noise on resampled headings (§V-B)")
     point_spacing_m: float = param(0.5, unit="m", gt=0,
                                    description="odometry resampled along its path at this spacing")
+    right_hand_heading: Literal["arrival", "departure"] = param(
+        "arrival", description="walking direction of a right-hand observation: the direction "
+        "of arrival at the pattern's last node, or the paper's Hea(eta, 2), the next step "
+        "(see comparison.py)")
     icp_iterations: int = param(30, gt=0, description="ICP iteration limit")
     icp_tolerance: float = param(1e-4, unit="m", gt=0,
                                  description="ICP stops when an iteration improves the RMSE by less")
@@ -60,6 +75,8 @@ class _AgentState:
     next_at_m: float
     obs: Observations | None = None
     obs_t: float = math.nan
+    #: smoothed relative pattern likelihood of the cloud (None before the first comparison)
+    fit: float | None = None
 
 
 class SearchPatternIcp(ParticleConstraint):
@@ -86,7 +103,8 @@ class SearchPatternIcp(ParticleConstraint):
             for note in patterns.notes:
                 self.ctx.log.info("search patterns: %s", note)
             self._comparison = PatternComparison(patterns, p.length_m, max_iter=p.icp_iterations,
-                                                 tol=p.icp_tolerance)
+                                                 tol=p.icp_tolerance,
+                                                 right_hand_heading=p.right_hand_heading)
         return self._comparison
 
     def start(self) -> None:
@@ -115,12 +133,21 @@ class SearchPatternIcp(ParticleConstraint):
         ll = -e / self.params.sigma ** 2
         if np.isnan(ll).any():  # particles on floors without patterns: as likely as the best
             ll[np.isnan(ll)] = np.nanmax(ll) if np.isfinite(np.nanmax(ll, initial=-np.inf)) else 0.0
+        # fit of the cloud: its mean likelihood relative to the best pseudo-observation
+        best = float(np.min(obs.rmse))
+        now = float(p.weights @ np.exp(ll + best / self.params.sigma ** 2))
+        a = self.params.misfit_smoothing
+        st.fit = now if st.fit is None else st.fit + a * (now - st.fit)
         return ll
 
     def replacements(self, step: ParticleStep) -> Particles | None:
         st = self.state[step.agent]
         q = self.params.resample_percent
         if q <= 0 or st.obs is None or st.obs_t != step.t:
+            return None
+        if (step.spread_m2 <= self.params.resample_above_m2
+                and st.fit >= math.exp(-self.params.misfit_m / self.params.sigma ** 2)):
+            self.ctx.count("resampling_skipped_converged")
             return None
         n = int(round(len(step.particles) * q / 100))
         if n == 0:

@@ -50,6 +50,8 @@ class ParticleStep:
     ``history`` the agent's INS-frame track including it, ``walk_offset`` the
     current IMU-yaw-to-walking-direction offset [rad] and ``ins_heading`` the INS
     yaw at this time [rad]. ``building`` is the pipeline's building model.
+    ``spread_m2`` is var_x + var_y of the cloud after the previous update (inf before
+    the first), the filter's own measure of how converged it is.
     """
 
     agent: str
@@ -62,6 +64,7 @@ class ParticleStep:
     walk_offset: float
     rng: np.random.Generator
     building: Any
+    spread_m2: float = float("inf")
 
     def walking_heading(self, p: Particles | None = None) -> np.ndarray:
         """Walking direction of each particle in the building frame [rad]."""

@@ -39,7 +39,8 @@ from .history import OdometryHistory
 from .initialisation import around_pose, near_point, uniform_free_space
 from .map_error import SpreadMonitor
 from .motion import MotionNoise, propagate
-from .particles import ParticleSummary, Particles, normalise_log_weights, wrap_angle
+from .particles import (ParticleSummary, Particles, local_log_weight, normalise_log_weights,
+                        wrap_angle)
 from .resampling import Resampler, replace_removed, resample_indices
 from .stairs import apply_stairs
 
@@ -93,6 +94,14 @@ class ParticleFilterParams(Params):
     map_error_clear_m2: float | None = param(None, unit="m^2", gt=0,
                                              description="var_x + var_y below which a map error "
                                              "clears (default: the same threshold)")
+    injected_weight: Literal["neighbours", "uniform"] = param(
+        "neighbours", description="weight of particles a constraint injects: the kernel-"
+        "weighted mean weight of the particles already near them (neighbours), or 1/N each "
+        "(uniform)")
+    injected_kernel_m: float = param(1.0, unit="m", gt=0,
+                                     description="injected_weight=neighbours: kernel width per axis")
+    injected_kernel_deg: float = param(30.0, unit="deg", gt=0,
+                                       description="injected_weight=neighbours: kernel width on heading")
     seed: int = param(0, description="random seed (combined with the agent name)")
 
 
@@ -115,12 +124,10 @@ class _AgentState:
     pending: _Pending | None = None
     last_t: float = -math.inf
     walk_offset: float = 0.0
-    offset_known: bool = False
-    #: heading-anchored init: shift frame rotations by the first offset estimate
-    anchor_heading: bool = False
     #: recent ground truth while waiting to initialise from it (init: truth)
     truth: deque = field(default_factory=lambda: deque(maxlen=1024))
-    counts: dict = field(default_factory=dict)
+    #: var_x + var_y of the cloud after the last update [m^2]
+    spread_m2: float = math.inf
 
 
 class ParticleFilter(Estimator):
@@ -233,7 +240,6 @@ class ParticleFilter(Estimator):
         ins_heading0 = msg.heading - msg.dheading
         scale = 1.0 + p.step_scale_sigma * rng.standard_normal(n) if p.step_scale_sigma else 1.0
         st.particles = Particles.create(xy, wrap_angle(heading - ins_heading0), floor, scale)
-        st.anchor_heading = p.init != "unknown"
         st.history.append(msg.t_start, np.asarray(msg.position, float) - msg.delta, ins_heading0)
         return True
 
@@ -253,7 +259,8 @@ class ParticleFilter(Estimator):
             motion=msg.motion)
         step = ParticleStep(agent=agent, t=msg.t, odometry=odo, before=before, particles=p,
                             history=st.history, ins_heading=msg.heading,
-                            walk_offset=st.walk_offset, rng=rng, building=self.ctx.building)
+                            walk_offset=st.walk_offset, rng=rng, building=self.ctx.building,
+                            spread_m2=st.spread_m2)
         self._measurement_updates(step, before)
         self._replace_by_constraints(step)
         if len(p) and p.effective_sample_size() < self.params.resample_below_ess * len(p):
@@ -268,10 +275,6 @@ class ParticleFilter(Estimator):
         est = st.history.walk_offset(self.params.offset_window_m)
         if est is None:
             return
-        if st.anchor_heading and not st.offset_known:
-            # the initial walking heading was set assuming no offset: re-anchor the frames
-            st.particles.yaw = wrap_angle(st.particles.yaw + est)
-        st.offset_known = True
         st.walk_offset = est
 
     def _measurement_updates(self, step: ParticleStep, before: Particles) -> None:
@@ -314,7 +317,13 @@ class ParticleFilter(Estimator):
             k = min(len(new), len(p))
             worst = np.argpartition(p.logw, k - 1)[:k] if k < len(p) else np.arange(len(p))
             new = new.take(np.arange(k))
-            new.logw = np.full(k, -math.log(len(p)))
+            if self.params.injected_weight == "uniform":
+                new.logw = np.full(k, -math.log(len(p)))
+            else:
+                new.logw = local_log_weight(p, new.xy, new.yaw, new.floor,
+                                            self.params.injected_kernel_m,
+                                            math.radians(self.params.injected_kernel_deg))
+                new.logw[~np.isfinite(new.logw)] = math.log(self.params.weight_floor / len(p)) - 1.0
             p.put(worst, new)
             normalise_log_weights(p.logw)
             self.ctx.count("injected_particles", k)
@@ -325,6 +334,7 @@ class ParticleFilter(Estimator):
         building = self.ctx.building
         levels = np.array([f.z for f in building.floors])
         summary = ParticleSummary.of(p, step.walking_heading(p), levels[p.floor] + p.climb)
+        st.spread_m2 = summary.spread_m2
         event = st.monitor.update(summary.spread_m2)
         if event == "map_error":
             self.ctx.diagnose(step.t, "warning", "map_error",

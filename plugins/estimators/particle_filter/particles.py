@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Particles", "ParticleSummary", "wrap_angle", "normalise_log_weights"]
+__all__ = ["Particles", "ParticleSummary", "wrap_angle", "normalise_log_weights",
+           "local_log_weight"]
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
@@ -94,6 +95,32 @@ class Particles:
         return float(1.0 / np.sum(w * w))
 
 
+def local_log_weight(p: "Particles", xy: np.ndarray, yaw: np.ndarray, floor: np.ndarray,
+                     sigma_m: float, sigma_rad: float) -> np.ndarray:
+    """Log of the kernel-weighted mean weight of ``p``'s particles around each state.
+
+    For new states (M,) — position ``xy`` (M, 2), frame rotation ``yaw``, ``floor`` —
+    the average weight the existing set gives to its particles near that state, with a
+    Gaussian kernel of ``sigma_m`` per axis and ``sigma_rad`` on the rotation (same floor
+    only). A state where the set has no support gets -inf.
+    """
+    out = np.full(len(xy), -np.inf)
+    w = p.weights
+    for fl in np.unique(floor):
+        sel = np.flatnonzero(floor == fl)
+        mine = np.flatnonzero(p.floor == fl)
+        if not len(mine):
+            continue
+        d2 = ((xy[sel, None, 0] - p.xy[None, mine, 0]) ** 2
+              + (xy[sel, None, 1] - p.xy[None, mine, 1]) ** 2) / sigma_m ** 2
+        dyaw = wrap_angle(yaw[sel, None] - p.yaw[None, mine]) / sigma_rad
+        k = np.exp(-0.5 * (d2 + dyaw ** 2))
+        ksum = k.sum(axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[sel] = np.where(ksum > 1e-300, np.log((k @ w[mine]) / ksum), -np.inf)
+    return out
+
+
 @dataclass(frozen=True)
 class ParticleSummary:
     """Weighted mean pose of a particle set with its covariance.
@@ -110,7 +137,6 @@ class ParticleSummary:
     cov: np.ndarray
     floor: int
     spread_m2: float
-    ess: float
 
     @classmethod
     def of(cls, p: Particles, heading: np.ndarray, elevation: np.ndarray) -> "ParticleSummary":
@@ -125,4 +151,4 @@ class ParticleSummary:
         floors = np.bincount(p.floor - p.floor.min(), weights=w)
         floor = int(np.argmax(floors) + p.floor.min())
         return cls(xy=mean_xy, z=z, heading=float(wrap_angle(mh)), cov=cov, floor=floor,
-                   spread_m2=float(cov[0, 0] + cov[1, 1]), ess=float(1.0 / np.sum(w * w)))
+                   spread_m2=float(cov[0, 0] + cov[1, 1]))
