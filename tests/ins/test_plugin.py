@@ -158,3 +158,36 @@ def test_reset_forgets_the_agent():
 def test_inconsistent_parameters_are_refused(bad):
     with pytest.raises(ValidationError):
         ZuptInsParams(**bad)
+
+
+def _biased_walk(start_rest: float, gyro_bias):
+    rec = add_noise(walk([Stride((0.7, 0.0, 0.0))] * 6, start_rest=start_rest),
+                    np.random.default_rng(9))
+    rec.gyro[:] += np.asarray(gyro_bias)
+    return rec
+
+
+def test_still_start_with_an_uncalibrated_gyro_gives_its_bias():
+    """A consumer gyro reading 9 deg/s at rest never looks still to the ZUPT detector; the
+    promised still start is judged from signal variance, so the bias is still measured."""
+    bias = (0.15, -0.06, 0.08)  # rad/s
+    rec = _biased_walk(6.0, bias)
+    comp, out, _ = make_component(ZuptIns, {"align_gyro_bias": True, "alignment_duration": 5.0})
+    for stream, msg in blocks(rec):
+        comp.handle(stream, msg)
+    comp.finish()
+    (aligned,) = [d for d in out.on("diagnostics") if d.code == "ins_aligned"]
+    assert aligned.level == "info" and 5.0 <= aligned.t <= 6.0
+    engine = comp.state["ff1"]["ff1/imu"].engine
+    np.testing.assert_allclose(engine.nominal[13:16], bias, atol=2e-3)   # bg in x[13:16]
+    steps = [m for m in out.on("odometry") if m.motion == "walk"]
+    assert len(steps) == 6
+
+
+def test_a_shorter_still_period_than_asked_is_used_and_reported():
+    rec = add_noise(walk([Stride((0.7, 0.0, 0.0))] * 4, start_rest=2.0), np.random.default_rng(2))
+    out = run_component(ZuptIns, {"alignment_duration": 5.0}, blocks(rec))
+    (aligned,) = [d for d in out.on("diagnostics") if d.code == "ins_aligned"]
+    assert aligned.level == "warning" and "still period of 2.0" in aligned.text
+    assert abs(aligned.t - 2.0) < 0.1
+    assert len([m for m in out.on("odometry") if m.motion == "walk"]) == 4

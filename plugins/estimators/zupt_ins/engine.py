@@ -61,6 +61,11 @@ class InsEngine:
         return bool(self._filt[2][eskf.I_ALIGNED])
 
     @property
+    def alignment_samples(self) -> int:
+        """Still samples the alignment averaged (fewer than configured after a fallback)."""
+        return int(self._filt[2][eskf.I_ALIGN_N])
+
+    @property
     def gaps(self) -> int:
         """Sample intervals longer than ``max_dt`` (integrated as max_dt)."""
         return int(self._filt[2][eskf.I_GAPS])

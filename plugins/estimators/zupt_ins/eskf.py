@@ -22,6 +22,7 @@ recording block by block gives bit-identical results to processing it whole.
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -46,7 +47,15 @@ F_ALIGN_ACC, F_ALIGN_GYRO = 7, 10          # 3 sums each
 F_T_STILL = 13                              # time of the last event within the current stance
 F_CORR = 14                                 # 3: position correction of the current sample
 F_STANCE_T0 = 17                            # time the current stance began
-N_FSTATE = 18
+F_QUIET = 18                                # 8: running mean and mean square of |f|, gyro xyz
+N_FSTATE = 26
+
+#: The still start for a gyro-bias alignment is judged by how little the signals vary,
+#: not by the ZUPT detector, whose statistic contains the very bias being measured (an
+#: uncalibrated consumer gyro reads several deg/s at rest and never looks still to it).
+QUIET_TAU = 0.25        # [s] time constant of the running mean / mean square
+QUIET_GYRO_STD = 0.02   # [rad/s] sway of a foot resting under a standing person, plus noise
+QUIET_ACC_STD = 0.1     # [m/s^2] the same for the specific-force magnitude
 
 # event rows
 E_T, E_T_PREV, E_POS, E_YAW, E_TILT, E_KIND, E_SWING_N, E_CORR, E_STANCE_T0 = 0, 1, 2, 5, 6, 7, 8, 9, 12
@@ -81,6 +90,7 @@ class FilterConfig(NamedTuple):
     zaru_sigma: float              # [rad/s]
     zaru_gate: float               # chi-square (3 dof) gate on the ZARU innovation
     align_samples: int             # still samples averaged for the coarse alignment
+    align_min_samples: int         # a still period this long that ends sooner is used instead
     align_gyro_bias: bool          # take the mean gyro over the alignment as initial bias
     height_correction: bool        # zupt-extension: level-floor height pseudo-measurement
     level_threshold: float         # [m] |dz| between stances below which the floor is level
@@ -252,6 +262,42 @@ def _write_out(row: np.ndarray, t: float, x: np.ndarray, P: np.ndarray, still: b
 
 
 @njit(cache=True)
+def _quiet(fs: np.ndarray, acc: np.ndarray, gyro: np.ndarray, dt: float, n: int,
+           cfg: FilterConfig) -> bool:
+    """Update the running signal statistics; True when the IMU has been quiet for a while."""
+    a = 1.0 if n <= 1 or dt <= 0.0 else min(1.0, dt / QUIET_TAU)
+    f = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2])
+    vals = (f, gyro[0], gyro[1], gyro[2])
+    var_f = 0.0
+    var_g = 0.0
+    for i in range(4):
+        m = fs[F_QUIET + 2 * i] + a * (vals[i] - fs[F_QUIET + 2 * i])
+        sq = fs[F_QUIET + 2 * i + 1] + a * (vals[i] * vals[i] - fs[F_QUIET + 2 * i + 1])
+        fs[F_QUIET + 2 * i] = m
+        fs[F_QUIET + 2 * i + 1] = sq
+        if i == 0:
+            var_f = max(sq - m * m, 0.0)
+        else:
+            var_g += max(sq - m * m, 0.0)
+    if dt <= 0.0 or n * dt < QUIET_TAU:
+        return False
+    per_sample = 1.0 / math.sqrt(dt)
+    return (math.sqrt(var_g) < QUIET_GYRO_STD + 3.0 * cfg.gyro_noise * per_sample
+            and math.sqrt(var_f) < QUIET_ACC_STD + 3.0 * cfg.accel_noise * per_sample)
+
+
+@njit(cache=True)
+def _start_navigation(x: np.ndarray, P: np.ndarray, ist: np.ndarray, fs: np.ndarray,
+                      cfg: FilterConfig, t_still: float) -> None:
+    """Align and start navigating in stance at ``t_still`` (the last still sample)."""
+    _align(x, P, ist, fs, cfg)
+    fs[F_T_EVENT] = t_still
+    ist[I_IN_STANCE] = 1
+    fs[F_STANCE_T0] = t_still
+    fs[F_T_STILL] = t_still
+
+
+@njit(cache=True)
 def _align(x: np.ndarray, P: np.ndarray, ist: np.ndarray, fs: np.ndarray, cfg: FilterConfig) -> None:
     """Coarse alignment from the mean specific force of the still samples."""
     k = ist[I_ALIGN_N]
@@ -310,22 +356,26 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
         ist[I_N] += 1
         fs[F_CORR:F_CORR + 3] = z3
         if ist[I_ALIGNED] == 0:
+            if cfg.align_gyro_bias:  # a still start is promised: judge it bias-free
+                still = _quiet(fs, acc[k], gyro[k], dt, ist[I_N], cfg)
             if still:
                 for i in range(3):
                     fs[F_ALIGN_ACC + i] += acc[k, i]
                     fs[F_ALIGN_GYRO + i] += gyro[k, i]
                 ist[I_ALIGN_N] += 1
                 if ist[I_ALIGN_N] >= cfg.align_samples:
-                    _align(x, P, ist, fs, cfg)
-                    fs[F_T_EVENT] = tk
-                    ist[I_IN_STANCE] = 1
-                    fs[F_STANCE_T0] = tk
-                    fs[F_T_STILL] = tk
-            else:
+                    _start_navigation(x, P, ist, fs, cfg, tk)
+                _write_out(out[k], tk, x, P, still, ist[I_ALIGNED] == 1)
+                continue
+            if ist[I_ALIGN_N] < cfg.align_min_samples:
                 ist[I_ALIGN_N] = 0
                 fs[F_ALIGN_ACC:F_ALIGN_ACC + 6] = 0.0
-            _write_out(out[k], tk, x, P, still, ist[I_ALIGNED] == 1)
-            continue
+                _write_out(out[k], tk, x, P, still, False)
+                continue
+            # A still period shorter than the alignment duration has just ended (a noisy
+            # sensor's detector flickers; walking stances are short): align on it rather
+            # than wait for ever, and navigate this first moving sample.
+            _start_navigation(x, P, ist, fs, cfg, tk - dt)  # the previous sample was still
         # -- strapdown mechanisation ---------------------------------------------------
         if dt > 0.0:
             wx, wy, wz = gyro[k, 0] - x[13], gyro[k, 1] - x[14], gyro[k, 2] - x[15]

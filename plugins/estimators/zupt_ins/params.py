@@ -101,6 +101,9 @@ class ZuptInsParams(Params):
     zaru_sigma: float = param(0.01, unit="rad/s", gt=0, description="ZARU noise")
     alignment_duration: float = param(0.1, unit="s", gt=0, description="still time averaged "
                                       "for the initial roll/pitch (alignment from gravity)")
+    alignment_min_duration: float = param(0.5, unit="s", gt=0, description=(
+        "if no still period lasts alignment_duration, the first still period at least "
+        "this long is used when it ends (a diagnostic says how long it was)"))
     align_gyro_bias: bool = param(False, description="take the mean gyro rate of the "
                                   "alignment as the gyro bias (needs a truly still start)")
     init_tilt_sigma: float = param(0.1 * DEG, unit="rad", gt=0, description="roll/pitch "
@@ -186,6 +189,8 @@ class ZuptInsParams(Params):
             init_yaw_sigma=self.init_tilt_sigma, zupt_sigma=self.zupt_sigma, zaru=self.zaru,
             zaru_after=self.zaru_after, zaru_sigma=self.zaru_sigma, zaru_gate=16.27,
             align_samples=max(1, int(round(self.alignment_duration * rate))),
+            align_min_samples=max(1, int(round(min(self.alignment_duration,
+                                                   self.alignment_min_duration) * rate))),
             align_gyro_bias=self.align_gyro_bias, height_correction=self.height_correction,
             level_threshold=self.level_threshold, level_sigma=self.level_sigma,
             still_period=self.still_period, max_dt=self.max_gap)

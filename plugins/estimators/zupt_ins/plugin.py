@@ -197,8 +197,14 @@ class ZuptIns(Estimator):
         t = float(res.states[aligned[0], eskf.O_T]) if len(aligned) else dev.last_t
         q = res.states[aligned[0], eskf.O_Q:eskf.O_Q + 4] if len(aligned) else dev.engine.nominal[6:10]
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, 1 - 2 * (q[1] ** 2 + q[2] ** 2)))))
-        self.ctx.diagnose(t, "info", "ins_aligned", f"{dev.device}: aligned from gravity "
-                          f"(foot tilt {tilt:.0f} deg); navigation started", agent=agent)
+        used = dev.engine.alignment_samples / dev.engine.filter.align_samples
+        short = used < 1.0
+        self.ctx.diagnose(
+            t, "warning" if short else "info", "ins_aligned",
+            f"{dev.device}: aligned from gravity (foot tilt {tilt:.0f} deg)"
+            + (f" on a still period of {used * self.params.alignment_duration:.2f} s, shorter "
+               f"than alignment_duration {self.params.alignment_duration:g} s"
+               if short else "") + "; navigation started", agent=agent)
 
     def _to_building(self, position: np.ndarray, heading: float, cov: np.ndarray
                      ) -> tuple[np.ndarray, float, np.ndarray]:
