@@ -12,6 +12,7 @@ from __future__ import annotations
 import heapq
 import logging
 import math
+import os
 import queue
 import threading
 import time
@@ -29,6 +30,18 @@ from .timeline import Timeline
 from .tracks import Track, TrackStore
 
 log = logging.getLogger("firenav.runner")
+
+
+def blas_threads() -> int:
+    """BLAS threads during a run: ``$FIRENAV_BLAS_THREADS``, else 1.
+
+    The estimators' matrices are small (tens to hundreds of rows), where BLAS threads
+    cost more than they give, above all on a busy 2-core field kit.
+    """
+    try:
+        return max(1, int(os.environ.get("FIRENAV_BLAS_THREADS", "1")))
+    except ValueError:
+        return 1
 
 
 class PipelineBuildError(RuntimeError):
@@ -170,9 +183,11 @@ class Runner:
                 comp.stop()
 
     def run(self) -> RunResult:
+        from threadpoolctl import threadpool_limits
         token = PIPELINE_DIR.set(self.spec.base_dir)
         try:
-            return self._run()
+            with threadpool_limits(limits=blas_threads(), user_api="blas"):
+                return self._run()
         finally:
             PIPELINE_DIR.reset(token)
 
