@@ -7,9 +7,9 @@ through the rotated files of the same recording
 rounded to the microsecond the live source used, which undoes the nanosecond float
 error of formats that store offsets (BLF): candump ``.log`` and BLF give back
 the live times exactly; ASC stores its start time to 1 ms, so its times come back
-shifted by one constant below 1 ms (intervals exact). Device names survive in candump ``.log``
-(the default); ASC and BLF store channel numbers, so frames read from them carry
-``can<N>``-style names. Error frames are counted (``can_error_frames``), not passed on.
+shifted by one constant below 1 ms (intervals exact to 1 us). Device names survive
+in candump ``.log`` (the default); ASC and BLF store channel numbers, so frames read
+from them carry ``can<N>``-style names. Error frames are counted (``can_error_frames``), not passed on.
 """
 from __future__ import annotations
 
