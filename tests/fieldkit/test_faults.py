@@ -16,7 +16,7 @@ from firenav_framework.summary import format_summary
 from firenav_framework.transports.mavlink_link import mavutil
 from firenav_framework.transports.player import DevicePlayer
 
-from .harness import AGENTS, assert_others_intact, offline_tracks, run_live, send_as_is
+from .harness import assert_others_intact, offline_tracks, run_live, send_as_is
 
 pytest.importorskip("firenav_plugins.estimators.zupt_ins", reason="zupt_ins not installed")
 

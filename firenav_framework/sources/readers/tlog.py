@@ -4,9 +4,9 @@ Packets are framed by their own header (MAVLink 1 ``0xFE``, MAVLink 2 ``0xFD`` w
 its optional 13-byte signature), so the reader is fast; each becomes the RawFrame the
 live ``mavlink`` source made of it (the same function,
 :func:`~firenav_framework.transports.mavlink_packets.packet_frame`). A truncated last
-record (a killed recorder) ends the file and is counted (``truncated_log_tail``); bytes that do not start a packet end
-the file too (``bad_tlog_records``), since framing is lost there. Rotated files of
-one recording are read in order.
+record (a killed recorder) ends the file and is counted (``truncated_log_tail``);
+bytes that do not start a packet end the file too (``bad_tlog_records``), since
+framing is lost there. Rotated files of one recording are read in order.
 """
 from __future__ import annotations
 
