@@ -116,7 +116,7 @@ class Timeline:
         if ch.offset:
             msg = msg.shifted(ch.offset)
         if cfg.duplicates == "drop":
-            digest = msg.digest()
+            digest = msg.dedup_key()
             if digest in ch.recent_set:
                 self._count("duplicates")
                 return

@@ -170,3 +170,16 @@ def test_event_streams_are_not_reported_as_gaps():
     out = drain(tl)
     assert data(out) == [0.0, 40.0, 95.0]
     assert not [m for _, m in out if isinstance(m, Diagnostic)]
+
+
+def test_raw_frames_are_duplicates_only_when_every_field_is_equal():
+    from firenav_framework.messages import RawFrame
+
+    def frame(t=1.0, data=b"\x01\x02", recv=10.0):
+        return RawFrame(t=t, device="can0", transport="can", channel=0x101, data=data,
+                        t_recv=recv)
+    tl = Timeline()
+    for f in [frame(), frame(), frame(data=b"\x01\x03"), frame(recv=10.5), frame(t=1.01)]:
+        tl.push("can.raw", f)
+    assert len(data(drain(tl))) == 4    # only the exact copy goes
+    assert tl.stats.counts["timeline"]["duplicates"] == 1
