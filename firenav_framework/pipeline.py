@@ -14,7 +14,8 @@ A pipeline is a YAML file::
 
 Every component item has the common keys ``id`` (defaults to the plugin name),
 ``plugin``, ``input`` (a stream or a list of streams; ``comp.port``, or ``comp`` when
-it has one output port; shell-style wildcards allowed for sinks), ``agents`` (only
+it has one output port; shell-style wildcards allowed for sinks, matching every stream
+but other sinks' own), ``agents`` (only
 these firefighters) and ``on_error`` (fault policy); all other keys are the plugin's
 parameters. Only safe YAML is read and plugins are looked up by name in the
 registry: a pipeline can never import arbitrary code.
@@ -385,8 +386,9 @@ def _resolve_stream(ref: str, streams: dict[str, type[Message]], s: ComponentSpe
     if any(ch in ref for ch in "*?["):
         if s.kind != "sink":
             return f"wildcards like '{ref}' are only allowed for sinks"
+        sinks = {c.id for c in specs if c.kind == "sink"}
         found = sorted(k for k in streams if fnmatch.fnmatchcase(k, ref)
-                       and not k.startswith(f"{s.id}."))
+                       and k.split(".")[0] not in sinks)  # sinks' streams only by name
         return found or f"'{ref}' matches no stream; known streams: {', '.join(sorted(streams))}"
     if ref in streams:
         return [ref]

@@ -180,3 +180,17 @@ def test_a_missing_scenario_is_reported_at_validation(tmp_path):
     # a path relative to the pipeline's folder is found (and checked) before anything runs
     msgs = problems(text.replace("nowhere", "mine.yaml"), base_dir=tmp_path)
     assert len(msgs) == 1 and "invalid scenario" in msgs[0]
+
+
+def test_sink_wildcards_leave_out_other_sinks_streams():
+    text = GOOD + ("  - {id: log1, plugin: diagnostics_log, input: '*.diagnostics'}\n"
+                   "  - {id: log2, plugin: diagnostics_log, input: '*.diagnostics', "
+                   "file: d2.jsonl}\n")
+    spec = load_pipeline_text(text, registry=REG)
+    assert spec.by_id("log1").inputs == ["dr.diagnostics", "src.diagnostics",
+                                         "timeline.diagnostics"]
+    assert spec.by_id("log2").inputs == spec.by_id("log1").inputs   # no loop between them
+    # named explicitly, a sink's stream can still be read
+    spec = load_pipeline_text(text.replace("input: '*.diagnostics', file",
+                                           "input: [log1.diagnostics], file"), registry=REG)
+    assert spec.by_id("log2").inputs == ["log1.diagnostics"]
