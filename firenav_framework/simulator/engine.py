@@ -21,10 +21,11 @@ import numpy as np
 from ..building import Anchor, load_building
 from ..messages import (BreadcrumbDrop, GroundTruth, Range, RssiReading, TagDeployment,
                         TagDetection)
-from .gait import FootKinematics, euler_matrix, foot_kinematics
+from .gait import FootKinematics, foot_kinematics
 from .imu_errors import IndoorField, corrupt, earth_field_enu, magnetometer
 from .imu_grades import AccelSpec, GyroSpec, MagSpec, get_grade
 from .imu_ideal import device_matrix, ideal_imu
+from .mount import MountMotion, imu_kinematics, mount_motion
 from .movement import BodyTrack, Walker
 from .planner import Planner
 from .radio import LinkModel, Node, packet_readings, simulate_dispensers
@@ -93,16 +94,16 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
         bodies[agent.id] = body
         tt = np.arange(0.0, t_end + 1e-9, 1.0 / m.truth_rate_hz)
         pos, hd = body.at(tt)
-        kin = None
+        kin = mount = None
         table = w.stride_table()
         cfg = agent.sensors.imu
         if cfg is not None:
-            rec, kin = _imu(b, sc, seed, agent, table, w, t_end, lat)
+            rec, kin, mount = _imu(b, sc, seed, agent, table, w, t_end, lat)
             imu[agent.id] = rec
         truth[agent.id] = AgentTruth(
             agent=agent.id, t=tt, position=pos, heading=hd,
             floor=np.asarray(b.floor_of_z(pos[:, 2]), int), motion=body.motion_at(tt),
-            foot=kin, strides=table, person=w.person.model_dump(),
+            foot=kin, mount=mount, strides=table, person=w.person.model_dump(),
             checkpoints=[c for c in w.checkpoints if c.t_end <= t_end])
 
     messages: dict[str, list] = {"truth": _truth_messages(truth)}
@@ -235,13 +236,14 @@ def _walk(b, sc: Scenario, seed: int, agent: AgentSpec, person, start, legs, t0:
           emit: bool) -> Walker:
     floor = b.floor(start.floor)
     w = Walker(person, sc.gaits, rng_for(seed, "gait", agent.id), t0=t0, xy=start.xy,
-               floor=start.floor, z=floor.z, heading=start.heading, emit_deployments=emit)
+               floor=start.floor, z=floor.z, heading=start.heading, emit_deployments=emit,
+               rockers=sc.model.foot_model == "realistic")
     w.run(legs)
     return w
 
 
 def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_end: float,
-         lat: float) -> tuple[ImuRecord, FootKinematics]:
+         lat: float) -> tuple[ImuRecord, FootKinematics, MountMotion | None]:
     cfg = agent.sensors.imu
     env = sc.model.environment
     grade = get_grade(cfg.grade)
@@ -252,18 +254,17 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
     phase = rng_for(seed, "clock", agent.id).uniform(0, 1.0 / fs)
     t = np.arange(phase, t_end, 1.0 / fs)
     if table is None:   # never moves: a foot at rest at its start pose
-        n = len(t)
-        p = walker.foot_p
-        kin = FootKinematics(t=t, position=np.repeat(p[None], n, 0), velocity=np.zeros((n, 3)),
-                             acceleration=np.zeros((n, 3)),
-                             euler=np.repeat([[walker.foot_yaw, walker.foot_pitch, 0.0]], n, 0),
-                             omega_body=np.zeros((n, 3)), stance=np.ones(n, bool),
-                             stride=np.full(n, -1))
+        kin = FootKinematics.at_rest(t, walker.foot_p, [walker.foot_yaw, walker.foot_pitch, 0.0])
     else:
         kin = foot_kinematics(table, t)
+    mount = None
+    if cfg.mount is not None and sc.model.foot_model == "realistic":
+        person = walker.person
+        mount = mount_motion(kin, fs, cfg.mount, np.array([0.0, 0.0, -person.imu_height]),
+                             rng_for(seed, "mount", agent.id), gravity=env.gravity)
     dev = device_matrix(cfg.axes, cfg.mount_deg)
     f, w = ideal_imu(kin, gravity=env.gravity, latitude_deg=lat if env.earth_rate else None,
-                     device=dev)
+                     device=dev, mount=mount)
     temp = env.temperature.change_k * (1.0 - np.exp(-t / env.temperature.tau_s))
     acc, sat_a, err_a = corrupt(f, accel_spec, fs, rng_for(seed, "accel", agent.id),
                                 temperature_delta=temp)
@@ -279,8 +280,9 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
             rot = np.array([[np.cos(bear), np.sin(bear)], [-np.sin(bear), np.cos(bear)]])
             earth = np.array([*(rot.T @ earth[:2]), earth[2]])
         field = IndoorField.random(mrng, mg.indoor_disturbance_ut)
-        b_n = earth + field(kin.position)
-        b_b = np.einsum("nji,nj->ni", euler_matrix(kin.euler), b_n) @ dev.T
+        pose = imu_kinematics(kin, mount)          # where the IMU is and how it is turned
+        b_n = earth + field(pose.position)
+        b_b = np.einsum("nji,nj->ni", pose.c_bn, b_n) @ dev.T
         mag = magnetometer(b_b, mag_spec, mrng)
     rec = ImuRecord(agent=agent.id, device=f"{agent.id}/imu", grade=cfg.grade, rate_hz=fs,
                     frame=cfg.axes, time=t, accel=acc, gyro=gyr, mag=mag,
@@ -288,7 +290,7 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
                     errors={"gyro": err_g.as_dict(), "accel": err_a.as_dict(),
                             "gyro_spec": gyro_spec.model_dump(),
                             "accel_spec": accel_spec.model_dump()})
-    return rec, kin
+    return rec, kin, mount
 
 
 def _truth_messages(truth: dict[str, AgentTruth]) -> list[GroundTruth]:

@@ -1,8 +1,13 @@
 """Ways of moving (gaits) and the people who move (person variation).
 
 Defaults come from gait literature and the reference papers: normal walking at
-1.3 m/s with a 1.4 m stride; careful walking in smoke at 0.3-0.8 m/s (the issue; the
-breadcrumb paper's "trail step", Sec. V-C); searching at about 0.5 m/s; knee-walking
+1.3 m/s with a 1.4 m stride, heel-off to foot-flat 0.93 s of which the foot rolls over
+its ball for 0.37 s (terminal stance and pre-swing, heel-off at about 27 % of the gait
+cycle) and down about its heel for 0.13 s (loading response, about 11 %), leaving
+about 0.15 s truly still; the timing, the impacts and the slower gaits' longer rockers
+were checked against the real recordings (``benchmarks/bench_sim_realism.py``);
+careful walking in smoke at 0.3-0.8 m/s (the issue; the breadcrumb paper's "trail
+step", Sec. V-C); searching at about 0.5 m/s; knee-walking
 and crawling far slower with the foot kept low and long stances; stairs one step per
 foot (a stride spans two treads), descended forwards or backwards (search-pattern
 paper Sec. II; RFID paper, gait classes FW/SC/SDF/SDB). A scenario may override any
@@ -26,41 +31,65 @@ class Gait(BaseModel):
     speed: float = Field(1.3, gt=0, le=4.0, description="walking speed along the path [m/s]")
     stride: float = Field(1.4, gt=0.05, le=2.5,
                           description="stride length of one foot at this speed [m]")
-    swing_s: float = Field(0.80, gt=0.2, le=3.0,
+    swing_s: float = Field(0.93, gt=0.2, le=3.0,
                            description="heel-off to foot-flat [s]; the rest of the stride "
-                           "the foot is flat and still (about 0.3 s at normal walking)")
-    clearance: float = Field(0.12, ge=0, le=0.5, description="foot (IMU) lift at mid-swing [m]")
-    toe_off_deg: float = Field(60.0, ge=0, le=80, description="toe-down pitch at toe-off")
-    heel_strike_deg: float = Field(25.0, ge=0, le=45, description="toe-up pitch before contact")
-    roll_deg: float = Field(4.0, ge=0, le=20, description="foot roll excursion in swing")
+                           "the foot is flat and still (about 0.15 s at normal walking)")
+    toe_rocker_s: float = Field(0.37, ge=0, le=1.2, description="heel-off to toe-off [s]: "
+                                "the foot rolls over the ball (terminal stance and "
+                                "pre-swing, 20-30 % of the gait cycle)")
+    heel_rocker_s: float = Field(0.13, ge=0, le=0.6, description="heel strike to foot-flat "
+                                 "[s]: the foot rolls down about the heel (loading response, "
+                                 "about 10 % of the gait cycle)")
+    clearance: float = Field(0.06, ge=0, le=0.5, description="lift of the foot's contact "
+                             "point (ball, then heel) at mid-swing [m]; the IMU rises more "
+                             "as the foot pitches")
+    toe_off_deg: float = Field(55.0, ge=0, le=80, description="toe-down pitch at toe-off")
+    heel_strike_deg: float = Field(20.0, ge=0, le=45, description="toe-up pitch at heel "
+                                   "strike")
+    roll_deg: float = Field(4.0, ge=0, le=20, description="foot inversion at toe-off and at "
+                            "heel strike")
     sway: float = Field(0.02, ge=0, le=0.2, description="lateral foot excursion in swing [m]")
-    impact_mm: float = Field(6.0, ge=0, le=20, description="heel pad / sole compression at "
-                             "heel strike (a 3-6 g spike at normal walking) [mm]")
+    impact_mm: float = Field(2.5, ge=0, le=20, description="heel pad / sole give at heel "
+                             "strike, down and forward (peaks of 3-4 g at normal walking, as "
+                             "on the real recordings) [mm]")
     posture: Posture = Field("stand", description="stand, or kneel (knee-walking / crawling)")
 
 
 #: Built-in gaits. ``stairs_*`` strides span two treads; their speed is unused.
 GAITS: dict[str, Gait] = {
     "walk": Gait(),
-    "brisk": Gait(speed=1.6, stride=1.6, swing_s=0.75, clearance=0.13, toe_off_deg=55,
-                  impact_mm=8.0),
-    "slow": Gait(speed=0.5, stride=0.85, swing_s=0.80, clearance=0.08, toe_off_deg=30,
-                 heel_strike_deg=12, impact_mm=3.0),
-    "search": Gait(speed=0.5, stride=0.8, swing_s=0.85, clearance=0.07, toe_off_deg=25,
-                   heel_strike_deg=10, impact_mm=3.0),
-    "trail_step": Gait(speed=0.3, stride=0.6, swing_s=0.9, clearance=0.05, toe_off_deg=15,
-                       heel_strike_deg=8, sway=0.01, impact_mm=2.0),
-    "knee_walk": Gait(speed=0.2, stride=0.35, swing_s=1.0, clearance=0.03, toe_off_deg=5,
-                      heel_strike_deg=0, roll_deg=2, sway=0.01, impact_mm=0.0, posture="kneel"),
-    "crawl": Gait(speed=0.25, stride=0.4, swing_s=1.0, clearance=0.04, toe_off_deg=6,
-                  heel_strike_deg=0, roll_deg=3, sway=0.01, impact_mm=0.0, posture="kneel"),
-    "stairs_up": Gait(speed=0.5, stride=0.6, swing_s=0.75, clearance=0.06, toe_off_deg=25,
-                      heel_strike_deg=5, impact_mm=3.0),
-    "stairs_down": Gait(speed=0.5, stride=0.6, swing_s=0.70, clearance=0.04, toe_off_deg=10,
-                        heel_strike_deg=5, impact_mm=6.0),
-    "stairs_down_backward": Gait(speed=0.3, stride=0.6, swing_s=0.9, clearance=0.04,
-                                 toe_off_deg=20, heel_strike_deg=0, impact_mm=2.0),
+    "brisk": Gait(speed=1.6, stride=1.6, swing_s=0.85, toe_rocker_s=0.33, heel_rocker_s=0.12,
+                  clearance=0.07, toe_off_deg=60, impact_mm=3.5),
+    "slow": Gait(speed=0.5, stride=0.85, swing_s=1.0, toe_rocker_s=0.40, heel_rocker_s=0.15,
+                 clearance=0.05, toe_off_deg=30, heel_strike_deg=12, impact_mm=1.5),
+    "search": Gait(speed=0.5, stride=0.8, swing_s=1.0, toe_rocker_s=0.40, heel_rocker_s=0.15,
+                   clearance=0.05, toe_off_deg=25, heel_strike_deg=10, impact_mm=1.5),
+    "trail_step": Gait(speed=0.3, stride=0.6, swing_s=1.1, toe_rocker_s=0.45,
+                       heel_rocker_s=0.15, clearance=0.04, toe_off_deg=15, heel_strike_deg=8,
+                       sway=0.01, impact_mm=1.0),
+    "knee_walk": Gait(speed=0.2, stride=0.35, swing_s=1.0, toe_rocker_s=0.0, heel_rocker_s=0.0,
+                      clearance=0.03, toe_off_deg=5, heel_strike_deg=0, roll_deg=2, sway=0.01,
+                      impact_mm=0.0, posture="kneel"),
+    "crawl": Gait(speed=0.25, stride=0.4, swing_s=1.0, toe_rocker_s=0.0, heel_rocker_s=0.0,
+                  clearance=0.04, toe_off_deg=6, heel_strike_deg=0, roll_deg=3, sway=0.01,
+                  impact_mm=0.0, posture="kneel"),
+    "stairs_up": Gait(speed=0.5, stride=0.6, swing_s=0.75, toe_rocker_s=0.20,
+                      heel_rocker_s=0.05, clearance=0.06, toe_off_deg=25, heel_strike_deg=5,
+                      impact_mm=3.0),
+    "stairs_down": Gait(speed=0.5, stride=0.6, swing_s=0.70, toe_rocker_s=0.15,
+                        heel_rocker_s=0.05, clearance=0.04, toe_off_deg=10, heel_strike_deg=5,
+                        impact_mm=6.0),
+    "stairs_down_backward": Gait(speed=0.3, stride=0.6, swing_s=0.9, toe_rocker_s=0.15,
+                                 heel_rocker_s=0.0, clearance=0.04, toe_off_deg=20,
+                                 heel_strike_deg=0, impact_mm=2.0),
 }
+
+#: Direction in which the boot's upper under the IMU turns relative to the sole over a
+#: ground contact (rotation vector per unit angle, foot frame: roll, pitch, yaw) for a
+#: *right* foot; the left foot mirrors roll and yaw. Measured in mid-stance on the real
+#: indoor walks (benchmarks/bench_sim_realism.py): eversion, the shank rolling forward
+#: (toe-down sign), outward rotation, at about 4 : 8 : 5.
+FLEX_DIRECTION_RIGHT = np.array([-0.41, 0.76, -0.51]) / np.linalg.norm([-0.41, 0.76, -0.51])
 
 #: Stance duration per stride on stairs [s] (foot flat on a tread).
 STAIR_STANCE_S = {"stairs_up": 0.45, "stairs_down": 0.40, "stairs_down_backward": 0.8}
@@ -91,6 +120,10 @@ class Person(BaseModel):
     foot_offset: float = Field(0.10, ge=0, le=0.3)
     toe_out_deg: float = Field(7.0, ge=-20, le=30)
     imu_height: float = Field(0.06, gt=0, le=0.3, description="IMU above the floor at stance [m]")
+    imu_from_heel: float = Field(0.10, ge=0, le=0.3, description="IMU ahead of the heel's "
+                                 "contact point [m] (an instep mount)")
+    imu_to_ball: float = Field(0.08, ge=0, le=0.3, description="ball of the foot "
+                               "(metatarsal heads) ahead of the IMU [m]")
     jitter: float = Field(0.03, ge=0, le=0.2)
     heading_jitter_deg: float = Field(2.0, ge=0, le=15)
 

@@ -9,6 +9,9 @@ no transport rate over a building):
 * angular rate ``w_ib^b = w_nb^b + C_n^b Omega_ie`` with
   ``Omega_ie = w_e (0, cos L, sin L)`` in ENU at latitude ``L``.
 
+The IMU moves with the foot, or (``mount``) with the foot plus its compliant mount
+(:mod:`.mount`): then the readings are those of the IMU's own motion.
+
 The device may be mounted with its own axes (``axes``: three letters of F/B/L/R/U/D
 saying where the device x, y, z point on the foot, e.g. ``"FRD"`` for a z-down unit)
 and a small fixed mounting rotation (``mount_deg``: roll, pitch, yaw of the device
@@ -19,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .gait import FootKinematics, euler_matrix
+from .gait import FootKinematics
+from .mount import MountMotion, imu_kinematics
 
 EARTH_RATE = 7.2921150e-5  # rad/s, WGS84
 STANDARD_GRAVITY = 9.81
@@ -58,20 +62,22 @@ def earth_rate_enu(latitude_deg: float) -> np.ndarray:
 
 
 def ideal_imu(kin: FootKinematics, *, gravity: float = STANDARD_GRAVITY,
-              latitude_deg: float | None = None, device: np.ndarray | None = None
-              ) -> tuple[np.ndarray, np.ndarray]:
+              latitude_deg: float | None = None, device: np.ndarray | None = None,
+              mount: MountMotion | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(specific force [m/s^2], angular rate [rad/s]) as (N, 3) arrays in device axes.
 
     ``latitude_deg=None`` leaves out the Earth rate (and Coriolis); ``device`` is
-    :func:`device_matrix` (identity: device axes are the foot's FLU).
+    :func:`device_matrix` (identity: device axes are the foot's FLU); ``mount`` the
+    IMU's motion relative to the foot (None: rigidly on the foot).
     """
-    c_bn = euler_matrix(kin.euler)  # foot FLU -> ENU
-    f_n = kin.acceleration.copy()
+    imu = imu_kinematics(kin, mount)
+    c_bn = imu.c_bn  # IMU (foot FLU axes) -> ENU
+    f_n = imu.acceleration.copy()
     f_n[:, 2] += gravity
-    w_b = kin.omega_body
+    w_b = imu.omega_body
     if latitude_deg is not None:
         w_ie = earth_rate_enu(latitude_deg)
-        f_n += 2.0 * np.cross(w_ie, kin.velocity)
+        f_n += 2.0 * np.cross(w_ie, imu.velocity)
         w_b = w_b + np.einsum("nji,j->ni", c_bn, w_ie)
     f_b = np.einsum("nji,nj->ni", c_bn, f_n)
     if device is not None:

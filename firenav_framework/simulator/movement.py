@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .gait import DOWN, LEVEL, UP, StrideTable
-from .gaits import (GAITS, KNEEL_IMU_HEIGHT, KNEEL_PITCH, POSTURE_CHANGE_S, STAIR_STANCE_S,
-                    Gait, Person)
+from .gaits import (FLEX_DIRECTION_RIGHT, GAITS, KNEEL_IMU_HEIGHT, KNEEL_PITCH,
+                    POSTURE_CHANGE_S, STAIR_STANCE_S, Gait, Person)
 from .geometry import fillet, resample
 
 #: Largest heading change of one stride of the instrumented foot (two steps) [rad];
@@ -113,11 +113,12 @@ class Walker:
 
     def __init__(self, person: Person, gaits: dict[str, Gait], rng: np.random.Generator, *,
                  t0: float, xy: np.ndarray, floor: int, z: float, heading: float,
-                 emit_deployments: bool = True):
+                 emit_deployments: bool = True, rockers: bool = True):
         self.person = person
         self.gaits = {**GAITS, **gaits}
         self.rng = rng
         self.emit_deployments = emit_deployments
+        self.rockers = rockers             # False: the foot lifts off and lands flat
         self.side = -1.0 if person.foot == "right" else 1.0  # left-normal multiplier
         self.t = float(t0)                 # the foot is at rest since this time
         self.floor = floor
@@ -158,14 +159,19 @@ class Walker:
         return gait.stride * self.person.stride_scale * np.sqrt(self.person.speed_scale)
 
     def _swing(self, t0: float, t1: float, p1: np.ndarray, yaw1: float, pitch1: float,
-               gait: Gait, vstyle: int, motion: str, toe_off: float | None = None,
-               heel: float | None = None) -> None:
+               gait: Gait, vstyle: int, motion: str) -> None:
+        # rockers scale with this swing's duration; inversion and the boot's flex are
+        # mirrored between the feet (self.side is -1 for the right foot)
+        scale = (t1 - t0) / gait.swing_s if self.rockers else 0.0
+        cap = 0.4 * (t1 - t0)
+        kneeling = self.posture == "kneel" or gait.posture == "kneel" or motion == "posture"
+        flex = np.zeros(3) if kneeling else FLEX_DIRECTION_RIGHT * [-self.side, 1.0, -self.side]
         self.swings.append((t0, t1, self.foot_p.copy(), p1.copy(), self.foot_yaw, yaw1,
                             self.foot_pitch, pitch1, gait.clearance,
-                            np.radians(gait.toe_off_deg) if toe_off is None else toe_off,
-                            np.radians(gait.heel_strike_deg) if heel is None else heel,
-                            np.radians(gait.roll_deg), gait.sway, vstyle, motion,
-                            gait.impact_mm / 1000.0))
+                            np.radians(gait.toe_off_deg), np.radians(gait.heel_strike_deg),
+                            -self.side * np.radians(gait.roll_deg), gait.sway, vstyle, motion,
+                            gait.impact_mm / 1000.0, min(gait.toe_rocker_s * scale, cap),
+                            min(gait.heel_rocker_s * scale, cap), flex))
         self.foot_p = p1.copy()
         self.foot_yaw = yaw1
         self.foot_pitch = pitch1
@@ -194,7 +200,7 @@ class Walker:
         p1 = self.foot_p.copy()
         p1[2] = self.z_ground + self._imu_height(posture)
         g = Gait(clearance=0.03, toe_off_deg=0, heel_strike_deg=0, roll_deg=2, sway=0.0,
-                 impact_mm=0.0)
+                 impact_mm=0.0, toe_rocker_s=0.0, heel_rocker_s=0.0)
         self._swing(t0, t0 + POSTURE_CHANGE_S, p1, self.foot_yaw, pitch, g, LEVEL, "posture")
         self.posture = posture
         self._knot(self.t, "posture")
@@ -251,9 +257,9 @@ class Walker:
         dq = np.diff(np.concatenate([[0.0], qi]))
         period = dq / (gait.speed * self.person.speed_scale)
         swing = np.minimum(gait.swing_s * (1 + self.person.jitter * self.rng.standard_normal(n)),
-                           0.85 * period)
+                           0.9 * period)
         swing = np.maximum(swing, 0.35)
-        stance = np.maximum(period - swing, 0.12)
+        stance = np.maximum(period - swing, 0.1)
         z = np.full(n, self.z_ground)
         self._footfalls(xy, hi, z, stance, swing, np.full(n, LEVEL), gait, leg.gait)
 
@@ -346,7 +352,12 @@ class Walker:
                            heel_strike=np.array(cols[10], float),
                            roll_amp=np.array(cols[11], float), sway=np.array(cols[12], float),
                            vstyle=np.array(cols[13], int), motion=np.array(cols[14], dtype=object),
-                           impact=np.array(cols[15], float))
+                           impact=np.array(cols[15], float), toe_rocker=np.array(cols[16], float),
+                           heel_rocker=np.array(cols[17], float), flex=np.array(cols[18], float),
+                           heel_arm=np.array([-self.person.imu_from_heel, 0.0,
+                                              -self.person.imu_height]),
+                           toe_arm=np.array([self.person.imu_to_ball, 0.0,
+                                             -self.person.imu_height]))
 
     def body_track(self) -> BodyTrack:
         k = sorted(self.knots, key=lambda r: r[0])

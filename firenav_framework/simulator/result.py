@@ -10,6 +10,7 @@ import numpy as np
 
 from ..messages import ImuBlock, Message
 from .gait import FootKinematics, StrideTable
+from .mount import MountMotion
 
 
 @dataclass
@@ -47,7 +48,9 @@ class AgentTruth:
 
     Body (sampled at the truth rate): ``t`` (N,), ``position`` (N, 3) ENU [m] of the
     ground under the body, ``heading`` (N,) [rad] facing direction, ``floor`` (N,),
-    ``motion`` (N,) label. Foot (every IMU sample): ``foot`` kinematics, ``strides``.
+    ``motion`` (N,) label. Foot (every IMU sample): ``foot`` kinematics, ``strides``;
+    ``mount``: the IMU's motion relative to the foot (None: rigid), the IMU itself is at
+    ``foot.position + C_b^n mount.u`` (millimetres from the foot point).
     ``checkpoints``: the marked stops (:class:`~.movement.CheckpointRecord`).
     """
 
@@ -58,6 +61,7 @@ class AgentTruth:
     floor: np.ndarray
     motion: np.ndarray
     foot: FootKinematics | None = None
+    mount: MountMotion | None = None
     strides: StrideTable | None = None
     person: dict[str, Any] = field(default_factory=dict)
     checkpoints: list[Any] = field(default_factory=list)

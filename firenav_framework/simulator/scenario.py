@@ -34,6 +34,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..yaml_locations import ConfigError, LocatedDocument, Problem, load, loads
 from .gaits import Gait, Person
 from .imu_grades import AccelSpec, GyroSpec, MagSpec, get_grade
+from .mount import MountConfig
 
 SCENARIO_DIR = Path(__file__).with_name("scenarios")
 
@@ -126,6 +127,8 @@ class ImuConfig(_Model):
     axes: str = Field("FLU", description="device axes on the foot, e.g. FLU or FRD (z down)")
     mount_deg: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="roll, pitch, "
                                                   "yaw of the device on the boot [deg]")
+    mount: MountConfig | None = Field(MountConfig(), description="compliance of the "
+                                      "attachment (null: rigidly on the foot)")
     magnetometer: bool = False
     gyro: dict[str, float] = Field(default_factory=dict, description="GyroSpec overrides")
     accel: dict[str, float] = Field(default_factory=dict, description="AccelSpec overrides")
@@ -345,6 +348,10 @@ class ScenarioModel(_Model):
     duration_s: float | None = Field(None, gt=0)
     truth_rate_hz: float = Field(20.0, gt=0, le=200)
     end_still_s: float = Field(3.0, ge=0, description="still time after the last plan ends")
+    foot_model: Literal["realistic", "ideal"] = Field(
+        "realistic", description="realistic: the foot rolls over heel and ball and the IMU "
+        "sits on a compliant boot; ideal: the foot lifts off and lands flat and the IMU is "
+        "rigid on it (every IMU's mount is ignored)")
     gaits: dict[str, dict[str, Any]] = Field(default_factory=dict)
     environment: Environment = Environment()
     radio: Radio = Radio()
