@@ -171,6 +171,10 @@ def mount_motion(kin: FootKinematics, fs: float, config: MountConfig, pivot: np.
     ``pivot`` (3,) [m]: the sole point under the IMU, from the IMU, foot frame (the
     upper flexes about it).
     """
+    missing = [k for k in ("angular_accel", "contact", "phase", "flex") if getattr(kin, k) is None]
+    if missing:
+        raise ValueError(f"foot kinematics without {', '.join(missing)}: make them with "
+                         "foot_kinematics() or FootKinematics.at_rest()")
     w = 2.0 * np.pi * config.natural_hz
     f_b = specific_force_body(kin, gravity)
     flex_amount, shear = boot_deformation(kin)

@@ -135,6 +135,11 @@ def test_the_boot_flexes_over_a_contact_and_the_imu_turns_while_the_foot_is_stil
     # a rigid mount leaves the foot's motion alone
     rigid = imu_kinematics(kin, None)
     assert np.array_equal(rigid.position, kin.position)
+    bare = FootKinematics(t=t, position=kin.position, velocity=kin.velocity,
+                          acceleration=kin.acceleration, euler=kin.euler,
+                          omega_body=kin.omega_body, stance=kin.stance, stride=kin.stride)
+    with pytest.raises(ValueError, match="angular_accel, contact, phase, flex"):
+        mount_motion(bare, fs, cfg, np.zeros(3), np.random.default_rng(0))
 
 
 def test_ideal_foot_model_and_rigid_mount_switch_the_physics_off():
