@@ -13,6 +13,11 @@ proportion to the likelihood, with Gaussian noise of 0.5 m per axis and 25 deg o
 the walking heading (§IV-E, §V-B). New particles that the noise would put outside
 the free space (or on the other side of a wall from their node) are drawn again.
 
+The paper resamples after every comparison and notes that this helps before the
+filter has converged but can throw it off course in a larger area (§V-C, §V-D).
+``resample_above_m2`` > 0 resamples only while the cloud's var_x + var_y exceeds it:
+before convergence and after a disturbance such as a map error (§V-E).
+
 The odometry trajectory is resampled every ``point_spacing_m`` along its path rather
 than taken at 2 Hz as in the paper, so that the many pauses of a search (sweeping,
 checking a door) do not pile points on one spot and bias the ICP fit.
@@ -46,15 +51,9 @@ class SearchPatternIcpParams(Params):
                                     description="q: share of lowest-weight particles replaced "
                                     "by pseudo-observations after each comparison (0 = off)")
     resample_above_m2: float = param(0.0, unit="m^2", ge=0,
-                                     description="gate: resample from pseudo-observations only "
-                                     "while the cloud's var_x + var_y exceeds this or its fit is "
-                                     "worse than misfit_m (0: always, the paper)")
-    misfit_m: float = param(0.2, unit="m", gt=0,
-                            description="gate: also resample while the cloud explains the "
-                            "odometry worse than the best pseudo-observation by this ICP RMSE")
-    misfit_smoothing: float = param(0.3, gt=0, le=1,
-                                    description="gate: weight of the newest comparison in the "
-                                    "smoothed fit (exponential smoothing)")
+                                     description="resample from pseudo-observations only while "
+                                     "the cloud's var_x + var_y exceeds this, i.e. while the "
+                                     "filter has not converged (0: always, the paper)")
     resample_position_sigma_m: float = param(0.5, unit="m", ge=0,
                                              description="noise on resampled positions (§V-B)")
     resample_heading_sigma_deg: float = param(25.0, unit="deg", ge=0,
@@ -75,8 +74,6 @@ class _AgentState:
     next_at_m: float
     obs: Observations | None = None
     obs_t: float = math.nan
-    #: smoothed relative pattern likelihood of the cloud (None before the first comparison)
-    fit: float | None = None
 
 
 class SearchPatternIcp(ParticleConstraint):
@@ -133,11 +130,6 @@ class SearchPatternIcp(ParticleConstraint):
         ll = -e / self.params.sigma ** 2
         if np.isnan(ll).any():  # particles on floors without patterns: as likely as the best
             ll[np.isnan(ll)] = np.nanmax(ll) if np.isfinite(np.nanmax(ll, initial=-np.inf)) else 0.0
-        # fit of the cloud: its mean likelihood relative to the best pseudo-observation
-        best = float(np.min(obs.rmse))
-        now = float(p.weights @ np.exp(ll + best / self.params.sigma ** 2))
-        a = self.params.misfit_smoothing
-        st.fit = now if st.fit is None else st.fit + a * (now - st.fit)
         return ll
 
     def replacements(self, step: ParticleStep) -> Particles | None:
@@ -145,8 +137,7 @@ class SearchPatternIcp(ParticleConstraint):
         q = self.params.resample_percent
         if q <= 0 or st.obs is None or st.obs_t != step.t:
             return None
-        if (step.spread_m2 <= self.params.resample_above_m2
-                and st.fit >= math.exp(-self.params.misfit_m / self.params.sigma ** 2)):
+        if step.spread_m2 <= self.params.resample_above_m2:
             self.ctx.count("resampling_skipped_converged")
             return None
         n = int(round(len(step.particles) * q / 100))
