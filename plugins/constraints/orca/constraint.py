@@ -286,7 +286,7 @@ class OrcaConstraint(Constraint):
         crossing = pos + f * move
         ranges = self._fresh_ranges(me, step.t)
         tag_z = self._building.floors[floor_idx].z + p.tag_height
-        k = doors.choose(crossing, move, seg, ranges, tag_z, p.door_search_radius,
+        k = doors.choose(pos, crossing, move, seg, ranges, tag_z, p.door_search_radius,
                          p.door_line_tolerance)
         if k is None:
             self.ctx.count("orca_door_none")
@@ -297,8 +297,14 @@ class OrcaConstraint(Constraint):
             return None
         door = doors.centers[k]
         rest = (1.0 - f) * move
-        # cross the door along the step; stop in the doorway if that is blocked
-        end = door + rest if not grid.blocked(door, door + rest, p.radius) else door.copy()
+        # Cross the door along the step, unless that is blocked or the straight line from
+        # the agent to there would pass the jamb: then stop in the doorway (the rest of
+        # the step comes with the next one, the update moving it as well), so that the
+        # track itself goes through the door.
+        end = door + rest
+        if grid.blocked(door, end, p.radius) or \
+                self._building.floors[floor_idx].crosses_wall(pos[None], end[None])[0]:
+            end = door.copy()
         return StepCorrection(position=_with_z(end, step),
                               update=Rigid2D.translation(door - crossing),
                               jump=True, event="orca_door")

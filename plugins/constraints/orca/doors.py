@@ -5,8 +5,10 @@ dead-reckoned path missed (ORCA paper, §2.2). The nearest door is often the wro
 where doors sit close together, so the paper picks the door that best explains the
 measured distance to the anchor left at the entrance. :class:`DoorTable` does that for
 any number of anchors: among the doors in the wall the step ran into, near the
-crossing and not behind the agent, it minimises the sum of squared normalised range
-residuals, and falls back to the nearest door when no fresh range is known.
+crossing, not behind the agent and in its line of sight (a door beyond a partition
+wall cannot be the one it just walked through), it minimises the sum of squared
+normalised range residuals, and falls back to the nearest door when no fresh range is
+known.
 """
 from __future__ import annotations
 
@@ -29,6 +31,7 @@ class DoorTable:
 
     def __init__(self, floor) -> None:
         gaps = list(floor.doors) + list(floor.openings)
+        self._walls = floor.wall_index
         self.ids = [g.id for g in gaps]
         self.centers = np.array([g.center for g in gaps], float).reshape(-1, 2)
         self.axes = np.array([g.axis for g in gaps], float).reshape(-1, 2)
@@ -36,16 +39,18 @@ class DoorTable:
     def __len__(self) -> int:
         return len(self.ids)
 
-    def choose(self, crossing: np.ndarray, direction: np.ndarray, wall: np.ndarray,
-               ranges: list[RangeFix], tag_z: float, search_radius: float,
+    def choose(self, agent: np.ndarray, crossing: np.ndarray, direction: np.ndarray,
+               wall: np.ndarray, ranges: list[RangeFix], tag_z: float, search_radius: float,
                line_tolerance: float) -> int | None:
         """Index of the door the agent most likely crossed instead of ``wall``, or None.
 
-        ``crossing`` (2,) is where the dead-reckoned step meets the wall [m];
-        ``direction`` (2,) the step; ``wall`` (2, 2) the wall segment it hit. Candidates
-        are doors in line with that wall (centre within ``line_tolerance`` [m] of its
-        line), within ``search_radius`` [m] of the crossing and not behind the agent.
-        The expected range from a door to an anchor puts the tag at height ``tag_z`` [m].
+        ``agent`` (2,) is the agent's position before the step and ``crossing`` (2,)
+        where the dead-reckoned step meets the wall [m]; ``direction`` (2,) the step;
+        ``wall`` (2, 2) the wall segment it hit. Candidates are doors in line with that
+        wall (centre within ``line_tolerance`` [m] of its line), within
+        ``search_radius`` [m] of the crossing, not behind the agent and reachable from
+        it in a straight line without touching a wall. The expected range from a door
+        to an anchor puts the tag at height ``tag_z`` [m].
         """
         if not len(self):
             return None
@@ -59,6 +64,10 @@ class DoorTable:
         ahead = (self.centers - crossing[:2]) @ direction[:2] >= -line_tolerance * float(
             np.hypot(*direction[:2]))
         cand = np.flatnonzero((off_line <= line_tolerance) & (dist <= search_radius) & ahead)
+        if len(cand):
+            seen = ~self._walls.crosses(np.repeat(np.asarray(agent, float)[None, :2], len(cand),
+                                                  axis=0), self.centers[cand])
+            cand = cand[seen]
         if not len(cand):
             return None
         cost = np.zeros(len(cand))
