@@ -180,7 +180,10 @@ class CanRecorder(RotatingRecorder):
         super().__init__(folder, prefix, **kw)
 
     def _open(self, path: Path) -> None:
-        self._writer = can.Logger(str(path))
+        if self.suffix == ".asc":
+            self._writer = _PaddedAscWriter(str(path))
+        else:
+            self._writer = can.Logger(str(path))
 
     def _write(self, t_us: int, item: can.Message) -> None:
         self._writer.on_message_received(item)
@@ -204,6 +207,18 @@ class CanRecorder(RotatingRecorder):
     def _fileno(self) -> int | None:
         fh = getattr(self._writer, "file", None)
         return fh.fileno() if fh is not None and not fh.closed else None
+
+
+class _PaddedAscWriter(can.ASCWriter):
+    """python-can's ASC writer with the milliseconds of its dates written as 3 digits.
+
+    python-can 4.6 writes 38 ms as ``:11.38`` which every reader (its own included)
+    parses as 380 ms, so a replay would start up to a second late. CANoe, too, expects
+    three digits.
+    """
+
+    def _format_header_datetime(self, dt: _dt.datetime) -> str:
+        return dt.strftime(self.FORMAT_DATE.format(f"{dt.microsecond // 1000:03d}"))
 
 
 #: python-can log formats a :class:`CanRecorder` can write (and ``can_log`` reads).

@@ -103,3 +103,21 @@ def test_killed_blf_recording_stays_readable(tmp_path):
         except Exception:
             pass
     assert got[:safe + 1] == list(range(safe + 1))
+
+
+def test_asc_recording_keeps_the_absolute_start_time_to_the_millisecond(tmp_path):
+    """A start 38 ms past the second: python-can alone would write ``.38`` (read as 380 ms)."""
+    from firenav_framework.transports.recorders import CanRecorder
+
+    t0 = 1_700_000_000.038881
+    rec = CanRecorder(tmp_path, "can", suffix=".asc")
+    for k in range(3):
+        t = t0 + 0.01 * k
+        rec.write(round(t * 1e6), can.Message(timestamp=t, arbitration_id=0x100 + k,
+                                              data=bytes([k]), is_extended_id=False))
+    rec.close()
+    (path,) = log_files(tmp_path, (".asc",))
+    frames = [m for _, m in find_reader(path)(path, ReadOptions())]
+    assert [f.data for f in frames] == [bytes([0]), bytes([1]), bytes([2])]
+    for k, f in enumerate(frames):  # the header keeps whole milliseconds
+        assert abs(f.t - (t0 + 0.01 * k)) < 1e-3
