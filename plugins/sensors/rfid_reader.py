@@ -31,15 +31,15 @@ dropped (the first placement stands).
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 
 from firenav_framework import Params, RawFrame, Sensor, TagDeployment, TagDetection, Tick, param
 from firenav_framework.messages import Message
 
+from .checked_lines import NAME, LineProblem, decode_fields, encode_fields
+
 __all__ = ["RfidLine", "decode_rfid_line", "encode_rfid_line", "RfidReaderSensor", "PLUGINS"]
 
-_ID = re.compile(r"^[A-Za-z0-9_.:/-]+$")
 
 
 class LineError(ValueError):
@@ -57,13 +57,6 @@ class RfidLine:
     reads: int = 1
 
 
-def _xor(body: bytes) -> int:
-    x = 0
-    for b in body:
-        x ^= b
-    return x
-
-
 def encode_rfid_line(line: RfidLine, checksum: bool = True) -> bytes:
     """The text of a reader line (no terminator), with its ``*HH`` checksum."""
     fields = [line.kind, line.reader, line.tag_id]
@@ -71,33 +64,23 @@ def encode_rfid_line(line: RfidLine, checksum: bool = True) -> bytes:
         fields.append("" if line.rssi_dbm is None else f"{line.rssi_dbm:.1f}")
         if line.reads != 1:
             fields.append(str(line.reads))
-    body = ",".join(fields).encode()
-    return body + (b"*%02X" % _xor(body) if checksum else b"")
+    return encode_fields(fields, checksum)
 
 
 def decode_rfid_line(data: bytes) -> RfidLine | None:
     """Decode one line; None if it is not a reader line; LineError if it is broken."""
     try:
-        text = bytes(data).decode("ascii").strip()
-    except UnicodeDecodeError:
-        raise LineError("not ASCII") from None
-    if not (text.startswith("TAG,") or text.startswith("DEPLOY,")):
+        parts = decode_fields(data, ("TAG", "DEPLOY"))
+    except LineProblem as e:
+        raise LineError(str(e)) from None
+    if parts is None:
         return None
-    if "*" in text:
-        body, _, cs = text.rpartition("*")
-        try:
-            ok = int(cs, 16) == _xor(body.encode())
-        except ValueError:
-            ok = False
-        if not ok:
-            raise LineError(f"checksum mismatch: {text!r}")
-        text = body
-    parts = text.split(",")
+    text = ",".join(parts)
     kind = parts[0]
     if kind == "DEPLOY" and len(parts) != 3 or kind == "TAG" and len(parts) not in (4, 5):
         raise LineError(f"{kind} line has {len(parts)} fields: {text!r}")
     reader, tag_id = parts[1], parts[2]
-    if not (_ID.match(reader) and _ID.match(tag_id)):
+    if not (NAME.match(reader) and NAME.match(tag_id)):
         raise LineError(f"bad reader or tag id: {text!r}")
     if kind == "DEPLOY":
         return RfidLine("DEPLOY", reader, tag_id)

@@ -34,7 +34,6 @@ from __future__ import annotations
 import functools
 import importlib.resources
 import math
-import re
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -42,6 +41,7 @@ import numpy as np
 
 from firenav_framework import Params, PerAgent, Range, RawFrame, Sensor, Tick, param
 
+from .checked_lines import NAME, LineProblem, decode_fields, encode_fields
 from .imu_frames import EncodedFrame, FrameError
 
 __all__ = ["TwrReport", "encode_uwb_line", "decode_uwb_line", "encode_uwb_can",
@@ -52,7 +52,6 @@ DBC_PATH = importlib.resources.files(__package__).joinpath("dbc/uwb_twr.dbc")
 _CAN_MESSAGE = "UWB_TWR_REPORT"
 _RANGE_FAILED_MM = (1 << 24) - 1        # RangeMm value meaning "ranging failed"
 _POWER_NA_RAW = 255                      # raw power byte meaning "not available"
-_NAME = re.compile(r"^[A-Za-z0-9_.:/-]+$")
 
 
 class TwrReport(NamedTuple):
@@ -74,13 +73,6 @@ class TwrReport(NamedTuple):
 
 # -- text line -----------------------------------------------------------------------
 
-def _xor(body: bytes) -> int:
-    x = 0
-    for b in body:
-        x ^= b
-    return x
-
-
 def encode_uwb_line(r: TwrReport, checksum: bool = True) -> bytes:
     """The text line of a report (no line terminator), with its ``*HH`` checksum."""
     def power(v: float | None) -> str:
@@ -89,32 +81,23 @@ def encode_uwb_line(r: TwrReport, checksum: bool = True) -> bytes:
     fields = ["RANGE", str(r.tag), str(r.anchor), mm, power(r.rx_dbm), power(r.fp_dbm)]
     if r.seq is not None:
         fields.append(str(r.seq))
-    body = ",".join(fields).encode()
-    return body + (b"*%02X" % _xor(body) if checksum else b"")
+    return encode_fields(fields, checksum)
 
 
 def decode_uwb_line(data: bytes) -> TwrReport | None:
     """Decode one text line; None if it is not a RANGE line; FrameError if it is broken."""
     try:
-        text = bytes(data).decode("ascii").strip()
-    except UnicodeDecodeError:
-        raise FrameError("bad_frames", "UWB line is not ASCII") from None
-    if not text.startswith("RANGE,"):
+        parts = decode_fields(data, ("RANGE",))
+    except LineProblem as e:
+        counter = "checksum_errors" if e.kind == "checksum" else "bad_frames"
+        raise FrameError(counter, f"UWB {e}") from None
+    if parts is None:
         return None
-    if "*" in text:
-        body, _, cs = text.rpartition("*")
-        try:
-            ok = int(cs, 16) == _xor(body.encode())
-        except ValueError:
-            ok = False
-        if not ok:
-            raise FrameError("checksum_errors", f"UWB line checksum mismatch: {text!r}")
-        text = body
-    parts = text.split(",")
+    text = ",".join(parts)
     if len(parts) not in (6, 7):
         raise FrameError("bad_frames", f"UWB line needs 6 or 7 fields, got {len(parts)}: {text!r}")
     _, tag, anchor, mm, rx, fp, *rest = parts
-    if not (_NAME.match(tag) and _NAME.match(anchor)):
+    if not (NAME.match(tag) and NAME.match(anchor)):
         raise FrameError("bad_frames", f"UWB line has a bad tag or anchor id: {text!r}")
     try:
         rng = None if mm in ("", "-1") else int(mm) / 1000.0
