@@ -250,7 +250,7 @@ class Planner:
         self._move(np.vstack([route, entry - 0.3 * d]), st, legs, gait, False, None, deploy)
         here = self.b.floor(st.floor).z + (deploy.tag_height_m if deploy else 0.0)
         if deploy is not None:
-            self._deploy_pause(f"{stair.id}:{'bottom' if up else 'top'}",
+            self._deploy_pause(f"{stair.id}/{'bottom' if up else 'top'}",
                                np.array([*entry, here]), st, legs, deploy)
         legs.append(Leg("stairs", st.floor, stair=stair, up=up, backwards=backwards and not up))
         st.floor = stair.floor_to if up else stair.floor_from
@@ -260,7 +260,7 @@ class Planner:
         st.heading = float(np.arctan2(d2[1], d2[0]))
         if deploy is not None:
             z = self.b.floor(st.floor).z + deploy.tag_height_m
-            self._deploy_pause(f"{stair.id}:{'top' if up else 'bottom'}",
+            self._deploy_pause(f"{stair.id}/{'top' if up else 'bottom'}",
                                np.array([*far, z]), st, legs, deploy)
 
     def _stairs_to(self, spec: Stairs, st: _State, legs: list[Leg], deploy, where: tuple) -> None:

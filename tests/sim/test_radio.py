@@ -144,3 +144,18 @@ agents:
         assert any(m.tx == node and m.rx == "ff1" for m in readings)
     # packets between breadcrumbs belong to no firefighter
     assert all(m.agent == "" for m in readings if m.tx.startswith("bc") and m.rx.startswith("bc"))
+
+
+def test_simulated_tags_name_the_sites_of_the_tag_database():
+    """Every stuck tag's ``feature`` (doors and both stair ends) is a tag-database site id,
+    and the tag lies at that site (within the jamb/stair-end height difference)."""
+    from firenav_framework.building.tags import candidate_tag_sites
+    from firenav_framework.simulator.scenario import load_scenario
+
+    r = simulate(load_scenario("rfid_route"), 3)
+    sites = {s.id: s for s in candidate_tag_sites(r.building)}
+    features = [v["feature"] for v in r.tags.values()]
+    assert any(f.endswith("/bottom") for f in features) and any(f.endswith("/top") for f in features)
+    for v in r.tags.values():
+        site = sites[v["feature"]]
+        assert np.linalg.norm(np.asarray(v["position"])[:2] - site.position[:2]) < 0.5
