@@ -5,7 +5,8 @@ The pipeline of the RFID/MEMS paper (rfid-mems-ekf):
 * **Odometry** (one increment per stride of the instrumented foot, from ``zupt_ins`` in
   its own frame, or from ``dead_reckoning`` already in the building frame, possibly
   ORCA-corrected) is classified into the paper's gait classes (:mod:`.gait`), its height
-  change replaced by the counted stairs, and accumulated.
+  change taken from the building's stair flights it walks (:mod:`.flight_tracker`; without
+  a building map: the paper's counted stairs), and accumulated.
 * Every ``update_period`` (1 s, "System model": synchronous mode) the accumulated strides
   drive the process model (eq. 2) of the EKF (:mod:`.filter`, state eq. 1), then the tag
   events that arrived are applied, and a pose is published.
@@ -38,8 +39,9 @@ from firenav_framework.messages import Message, Tick
 
 from .door_heading import HeadingWindow, door_heading_measurement
 from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter, rot2, wrap
+from .flight_tracker import FlightTracker
 from .gait import GaitClassifier, GaitConfig, StrideGait, count_stairs
-from .height import StairMap, snap_levels
+from .height import Flight, StairFlights, snap_levels
 from .history import StrideHistory
 from .params import PdrEkfParams
 
@@ -73,6 +75,8 @@ class _Agent:
     acc_dz: float = 0.0
     acc_var_z: float = 0.0
     acc_turn: float = 0.0
+    flights: FlightTracker | None = None   # the building's flights (stair_zone set)
+    # free counting (no flights): the paper's stairs, retracted and snapped
     stair_run: int = 0                # stair strides since the last level one
     last_dz: float = 0.0              # height counted for the previous stride [m]
     snap: bool = False                # a flight just ended: try the floor-level snap
@@ -103,7 +107,7 @@ class PdrEkf(Estimator):
         self._seq = itertools.count()
         self._unknown_tags: set[str] = set()
         self.tags: TagDatabase | None = None
-        self._stairs: StairMap | None = None
+        self._stairs: StairFlights | None = None
         self._levels = np.zeros(0)
         self._door = params.door_config()
 
@@ -116,7 +120,7 @@ class PdrEkf(Estimator):
             except KeyError as exc:
                 sites = ", ".join(s.id for s in self.tags.sites[:8])
                 raise ValueError(f"surveyed_tags: {exc.args[0]} (sites look like: {sites}, ...)") from None
-        self._stairs = StairMap(building, self.params.stair_zone or 1.0)
+        self._stairs = StairFlights(building, self.params.stair_zone or 1.0)
         self._levels = snap_levels(building)
         if self.params.alignment == "entrance":
             self._entrance()   # fail now, clearly, if there is none
@@ -185,8 +189,9 @@ class PdrEkf(Estimator):
         return True
 
     def _integrate(self, st: _Agent, msg: Odometry) -> None:
-        """Classify a stride, rotate it into the building frame, count its stairs, and
-        add it to the eq. 2 input of the next update, the history and the heading window."""
+        """Classify a stride, rotate it into the building frame, find its height change,
+        and add it to the eq. 2 input of the next update, the history and the heading
+        window."""
         delta = np.asarray(msg.delta, float)
         gait = self._classify(st, msg, delta, msg.heading - 0.5 * msg.dheading)
         R = rot2(st.psi0)
@@ -195,40 +200,75 @@ class PdrEkf(Estimator):
         if gait.gait != "still":
             cov = cov + np.eye(2) * max(self.params.stride_noise ** 2, MIN_STRIDE_VAR)
             st.walk_dir = math.atan2(d[1], d[0])
-        dz, var_z = self._height(st, gait, msg)
+        if st.flights is not None:
+            label, dz, var_z, level = self._flight_height(msg.agent, st, gait, d, msg.t)
+        else:
+            label, dz, var_z, level = gait.gait, *self._counted_height(st, gait, msg), None
         st.acc_d += d
         st.acc_cov += cov
         st.acc_dz += dz
         st.acc_var_z += var_z
         st.acc_turn += abs(msg.dheading)
+        if level is not None:
+            # the height is a level of the building now: Z + the pending height = level
+            st.filt.set_height(level - st.acc_dz, SNAP_SIGMA ** 2)
+            st.acc_var_z = 0.0
         start = msg.t_start if not math.isfinite(st.t_odo) else max(msg.t_start, st.t_odo)
-        st.history.add(start, msg.t, d, dz, cov, gait.gait)
+        st.history.add(start, msg.t, d, dz, cov, label)
         st.t_odo = msg.t
-        self.ctx.count(f"strides_{gait.gait}")
-        if gait.gait in ("SC", "SDF", "SDB"):
+        self.ctx.count(f"strides_{label}")
+        if st.flights is None and label in ("SC", "SDF", "SDB"):
             st.stair_run += 1
-        elif gait.gait == "FW":
+        elif st.flights is None and label == "FW":
             st.snap = st.snap or st.stair_run > 0
             st.stair_run = 0
-        if st.window is not None and gait.gait != "still":
+        if st.window is not None and label != "still":
             st.window_ready = st.window.add(d, self._door) or st.window_ready
+
+    def _now(self, st: _Agent) -> np.ndarray:
+        """Estimated position (3,) [m] after the strides accumulated since the last update."""
+        x = st.filt.x
+        xy = x[:2] + x[I_LAMBDA] * (rot2(x[I_DTHETA]) @ st.acc_d)
+        return np.array([xy[0], xy[1], x[I_Z] + st.acc_dz])
 
     def _classify(self, st: _Agent, msg: Odometry, delta: np.ndarray, foot: float) -> StrideGait:
         near = (self.params.stair_zone is None or not len(self._stairs)
-                or self._stairs.find(st.filt.x[:3]) is not None)
+                or self._stairs.near(self._now(st)) is not None)
         stride = st.gait.classify(delta, foot, near)
         if self.params.gait_source == "odometry" and msg.motion in MOTION_GAITS:
             return StrideGait(MOTION_GAITS[msg.motion], float(delta[2]), stride.d)
         return stride
 
-    def _height(self, st: _Agent, gait: StrideGait, msg: Odometry) -> tuple[float, float]:
-        """Height change [m] and its variance [m^2] of one stride."""
+    def _flight_height(self, agent: str, st: _Agent, gait: StrideGait, d: np.ndarray,
+                       t: float) -> tuple[str, float, float, float | None]:
+        """Gait class, height change [m], its variance [m^2] and the level [m] the height
+        is set to (or None) of one stride, from the building's flights (:mod:`.flight_tracker`)."""
+        x = st.filt.x
+        d_b = x[I_LAMBDA] * (rot2(x[I_DTHETA]) @ d)
+        now = self._now(st)
+        step = st.flights.stride(gait.gait, gait.dz, d_b, now[:2] + d_b, float(now[2]))
+        label = "FW" if step.vetoed else gait.gait
+        if step.vetoed:
+            self.ctx.count("stair_strides_off_flights")
+        if step.ended:
+            self.ctx.count(f"flights_{step.ended}")
+            verb = "completed" if step.ended == "complete" else "left"
+            self.ctx.diagnose(t, "info", f"flight_{step.ended}",
+                              f"{agent} {verb} flight {_flight_name(step.flight)}: height "
+                              f"{step.z:.2f} m, floor {self._floor(step.z)}", agent=agent)
+        var = (step.stairs * self.params.stair_sigma) ** 2
+        return label, step.z - float(now[2]), var, step.z if step.settled else None
+
+    def _counted_height(self, st: _Agent, gait: StrideGait, msg: Odometry) -> tuple[float, float]:
+        """Height change [m] and its variance [m^2] of one stride without the building's
+        flights: the INS's, or the paper's counted stairs (retracted when the next stride
+        does not confirm them)."""
         p = self.params
         if p.height_source == "ins":
             return gait.dz, float(msg.cov[2, 2])
         dz = var = 0.0
         if gait.gait in ("SC", "SDF", "SDB"):
-            rise = (self._stairs.rise_at(st.filt.x[:3]) if p.step_height_from_building
+            rise = (self._stairs.step_rise_at(self._now(st)) if p.step_height_from_building
                     else None) or p.step_height
             n = count_stairs(gait.dz, rise, p.max_stairs_per_stride)
             dz, var = n * rise, (n * p.stair_sigma) ** 2
@@ -275,6 +315,8 @@ class PdrEkf(Estimator):
                       p.start_sigma_scale ** 2, p.start_sigma_heading ** 2])
         st.filt = PdrFilter(x0, P0)
         st.gait = GaitClassifier(p.gait_config())
+        if p.stair_zone is not None and p.height_source == "stairs" and len(self._stairs):
+            st.flights = FlightTracker(self._stairs, p.flight_config())
         st.walk_dir = wrap(foot0 + st.psi0)
         st.t_cycle = first.t_start
         if p.door_heading:
@@ -379,6 +421,7 @@ class PdrEkf(Estimator):
                       self.ctx.building.floors[site.floor].z])
         Rm = np.diag([p.tag_sigma ** 2, p.tag_sigma ** 2, p.tag_sigma_z ** 2])
         D, dz, C = since
+        self._tag_level(agent, st, t, site, z[2], dz)
         relocate = p.relocate_heading_sigma if p.on_gate == "relocate" else None
         res = st.filt.update_position(z, Rm, D, dz, C, gate=gate, relocate=relocate)
         if res.relocated:
@@ -396,6 +439,28 @@ class PdrEkf(Estimator):
                           f"from {agent}'s estimate ({math.sqrt(res.nis):.1f} sigma): not used "
                           "(a duplicated tag id, or a wrong association?)", agent=agent)
         return False
+
+    def _tag_level(self, agent: str, st: _Agent, t: float, site: TagSite, level: float,
+                   dz_since: float) -> None:
+        """A tag read far from the estimated height: the height goes to the tag's level.
+
+        The height is a level of the building plus counted stairs, known to centimetres
+        when the flights were walked as the filter thinks, off by a whole flight when one
+        was missed; a Gaussian update with the tag's height noise would move it by a
+        fraction of a flight per read. A tag is on a door jamb or at a stair end of a
+        known floor, and its reader was within a metre or two of it."""
+        gate = self.params.tag_level_gate
+        z_then = float(st.filt.x[I_Z]) - dz_since
+        if gate is None or abs(level - z_then) <= gate:
+            return
+        st.filt.set_height(level + dz_since, SNAP_SIGMA ** 2)
+        if st.flights is not None:
+            st.flights.abandon()
+        self.ctx.count("tag_level_relocations")
+        self.ctx.diagnose(t, "warning", "tag_level_relocation",
+                          f"tag at {site.id} (floor {site.floor}) read {z_then - level:+.2f} m "
+                          f"from {agent}'s estimated height: height set to its level",
+                          agent=agent)
 
     def _open_window(self, st: _Agent, site: TagSite, t: float) -> None:
         """Collect the strides after the tag for the door heading (eq. 3)."""
@@ -458,6 +523,10 @@ class PdrEkf(Estimator):
         if code not in st.warned:
             st.warned.add(code)
             self.ctx.diagnose(t, "warning", code, text, agent=agent)
+
+
+def _flight_name(f: Flight) -> str:
+    return f"{f.stair}/{f.index}"
 
 
 def _is_still(msg: Odometry) -> bool:

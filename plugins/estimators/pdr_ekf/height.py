@@ -1,68 +1,163 @@
-"""Height from counted stairs, the stair rise of the building, and floor levels.
+"""The building's stair flights, and the heights a walk can rest on.
 
-The RFID/MEMS paper ("MEMS Navigation Module") gets the vertical displacement by counting
-stairs at a nominal 20 cm each. When the building model knows the stair the agent is on,
-its true rise (floor-to-floor height over its number of steps) is used instead
-(:meth:`StairMap.rise_at`); the same zones tell the gait classifier where stairs can be. :func:`snap_levels` lists the heights a flight can end on: the
-floor levels and the landings of the building's stairs; the estimator sets the height to
-the nearest one when a flight ends close to it, which takes out the counting error.
+The RFID/MEMS paper gets the height by counting stairs at a nominal 20 cm ("MEMS
+Navigation Module"). A building model tells much more: where each flight is, which way
+it climbs, how many stairs it has and the level at each of its ends, so that a flight
+walked from end to end moves the height by exactly its rise (:mod:`.flight_tracker`).
+
+A stair of the building (:class:`~firenav_framework.building.Stair`) is a walking line
+from its bottom to its top with ``n_steps`` steps. A line of three or more segments is
+read as flight - landing(s) - flight: the steps are on the first and the last segment,
+split in proportion to their lengths, and the segments between are flat landings (a
+U-shaped stair; the simulator builds its stairs the same way). A line of one or two
+segments is one flight (an L-shaped stair turns on winders).
 """
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
-import shapely
 
 from firenav_framework.building import Building, Stair
 
-__all__ = ["StairMap", "snap_levels"]
+__all__ = ["Flight", "StairFlights", "stair_flights", "snap_levels"]
 
 
-class StairMap:
-    """The building's stairs as zones: which stair (if any) a position is on, and its rise.
+@dataclass(frozen=True, eq=False)
+class Flight:
+    """One flight of stairs: walking line ``path`` (K, 2) [m] from its lower end to its
+    upper end, the levels ``z_lo``/``z_hi`` [m] at those ends, ``steps`` stairs, ``width``
+    [m], and the ``stair`` it belongs to (``index`` 0 = lowest flight of that stair)."""
 
-    A position is on a stair when it lies within ``margin`` [m] of the stair's footprint
-    and within a metre of its height range (the estimated height is coarse).
-    """
+    stair: str
+    index: int
+    path: np.ndarray
+    z_lo: float
+    z_hi: float
+    steps: int
+    width: float
 
-    def __init__(self, building: Building | None, margin: float = 1.0):
-        stairs = building.stairs if building is not None else []
-        self._stairs = [(s.polygon.buffer(margin), s) for s in stairs]
-        for geom, _ in self._stairs:
-            shapely.prepare(geom)
+    @property
+    def rise(self) -> float:
+        """Height climbed from the lower to the upper end [m]."""
+        return self.z_hi - self.z_lo
 
-    def __len__(self) -> int:
-        return len(self._stairs)
+    @property
+    def step_rise(self) -> float:
+        """Height of one stair [m]."""
+        return self.rise / self.steps
 
-    def find(self, position: np.ndarray) -> Stair | None:
-        """The stair at ``position`` (3,) [m], or None."""
-        x, y, z = (float(v) for v in position[:3])
-        for geom, s in self._stairs:
-            lo, hi = min(s.z_from, s.z_to), max(s.z_from, s.z_to)
-            if lo - 1.0 <= z <= hi + 1.0 and shapely.contains_xy(geom, x, y):
-                return s
-        return None
+    @property
+    def length(self) -> float:
+        """Horizontal length of the walking line [m]."""
+        return float(np.sum(np.linalg.norm(np.diff(self.path, axis=0), axis=1)))
 
-    def rise_at(self, position: np.ndarray) -> float | None:
-        """Rise of one stair [m] of the stair at ``position``, or None off the stairs."""
-        s = self.find(position)
-        return None if s is None else abs(s.step_height)
+    @property
+    def tread(self) -> float:
+        """Horizontal going of one stair along the walking line [m]."""
+        return self.length / self.steps
+
+    def end(self, sign: int) -> tuple[np.ndarray, float]:
+        """Horizontal position (2,) [m] and level [m] of the end a walk *enters* by when
+        climbing (``sign`` +1: the lower end) or descending (-1: the upper end)."""
+        return (self.path[0], self.z_lo) if sign > 0 else (self.path[-1], self.z_hi)
+
+    def locate(self, xy: np.ndarray) -> tuple[float, np.ndarray]:
+        """Horizontal distance [m] of ``xy`` (2,) from the walking line, and the climb
+        direction (2,) (unit, lower to upper end) of the line's segment nearest to it."""
+        best, axis = math.inf, self.path[1] - self.path[0]
+        for a, b in zip(self.path[:-1], self.path[1:]):
+            ab = b - a
+            u = float(np.clip(np.dot(xy - a, ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0))
+            dist = float(np.hypot(*(a + u * ab - xy)))
+            if dist < best:
+                best, axis = dist, ab
+        return best, axis / max(float(np.hypot(*axis)), 1e-12)
+
+
+def stair_flights(stair: Stair) -> list[Flight]:
+    """The flights of one stair of the building, lowest first (module docstring)."""
+    path = np.asarray(stair.path, float)
+    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    n = int(stair.n_steps)
+    lo, hi = min(stair.z_from, stair.z_to), max(stair.z_from, stair.z_to)
+    if stair.z_to < stair.z_from:          # walking line given from the upper end
+        path, seg = path[::-1], seg[::-1]
+    if len(seg) < 3 or n < 2:
+        return [Flight(stair.id, 0, path, lo, hi, max(n, 1), stair.width)]
+    first = int(np.floor(n * seg[0] / (seg[0] + seg[-1])))
+    first = min(max(first, 1), n - 1)
+    z_landing = lo + (hi - lo) * first / n
+    return [Flight(stair.id, 0, path[:2], lo, z_landing, first, stair.width),
+            Flight(stair.id, 1, path[-2:], z_landing, hi, n - first, stair.width)]
 
 
 def snap_levels(building: Building) -> np.ndarray:
-    """Sorted heights [m] where a flight of stairs can end: every floor level, and the
-    landings of the stairs. A landing is the middle of an inner segment of the stair's
-    walking line (a U-shaped stair) or its single turn (an L-shaped one), at the height
-    the stair model gives there (linear along the line)."""
+    """Sorted heights [m] a walk can rest on: every floor level and every landing."""
     levels = [f.z for f in building.floors]
     for s in building.stairs:
-        seg = np.linalg.norm(np.diff(s.path, axis=0), axis=1)
-        total = float(seg.sum())
-        if total <= 0:
-            continue
-        ends = np.concatenate([[0.0], np.cumsum(seg)]) / total
-        if len(s.path) == 3:
-            marks = [ends[1]]
-        else:
-            marks = [(ends[i] + ends[i + 1]) / 2 for i in range(1, len(s.path) - 2)]
-        levels += [s.z_from + f * s.rise for f in marks]
+        levels += [f.z_hi for f in stair_flights(s)[:-1]]
     return np.unique(np.round(levels, 6))
+
+
+class StairFlights:
+    """The flights of a building with the queries the estimator makes about them.
+
+    ``zone`` [m]: how far from a flight's walking line (beyond half its width) a
+    position estimate may be and still be on that flight (the estimate is metres off at
+    worst, the stairwell's flights a few metres apart).
+    """
+
+    def __init__(self, building: Building | None, zone: float):
+        stairs = building.stairs if building is not None else []
+        self.flights: list[Flight] = [f for s in stairs for f in stair_flights(s)]
+        self.zone = zone
+
+    def __len__(self) -> int:
+        return len(self.flights)
+
+    def _reach(self, f: Flight) -> float:
+        return 0.5 * f.width + self.zone
+
+    def near(self, position: np.ndarray) -> Flight | None:
+        """The flight nearest to ``position`` (3,) [m] within the zone and within a metre
+        of its height range, or None."""
+        x, y, z = (float(v) for v in position[:3])
+        best, found = math.inf, None
+        for f in self.flights:
+            if not f.z_lo - 1.0 <= z <= f.z_hi + 1.0:
+                continue
+            dist, _ = f.locate(np.array([x, y]))
+            if dist <= self._reach(f) and dist < best:
+                best, found = dist, f
+        return found
+
+    def step_rise_at(self, position: np.ndarray) -> float | None:
+        """Height of one stair [m] of the flight at ``position`` (3,), or None."""
+        f = self.near(position)
+        return None if f is None else f.step_rise
+
+    def entry(self, xy: np.ndarray, z: float, sign: int, d: np.ndarray,
+              axis_cos: float, min_treads: float) -> Flight | None:
+        """The flight a stair stride enters: climbing (``sign`` +1) from a lower end or
+        descending (-1) from an upper end whose level is within half the flight's rise of
+        ``z`` [m], the stride ending at ``xy`` (2,) within the zone of its walking line
+        and its horizontal displacement ``d`` (2,) [m] going that way along the flight
+        (cosine at least ``axis_cos``, at least ``min_treads`` treads). The nearest one."""
+        length = float(np.hypot(*d))
+        best, found = math.inf, None
+        for f in self.flights:
+            _, level = f.end(sign)
+            if abs(z - level) > 0.5 * f.rise:
+                continue
+            dist, axis = f.locate(xy)
+            if dist > self._reach(f):
+                continue
+            advance = sign * float(d @ axis)
+            if advance < axis_cos * length or advance < min_treads * f.tread:
+                continue
+            if dist < best:
+                best, found = dist, f
+        return found
+

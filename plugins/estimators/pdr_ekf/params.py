@@ -15,6 +15,7 @@ from pydantic import model_validator
 from firenav_framework import Params, param
 
 from .door_heading import DoorHeadingConfig
+from .flight_tracker import FlightConfig
 from .gait import GaitConfig
 
 DEG = math.pi / 180.0
@@ -64,13 +65,22 @@ class PdrEkfParams(Params):
                                "paper: 20 cm)")
     step_height_from_building: bool = param(True, description="use the rise of the building's "
                                             "stair when the agent is on one")
-    stair_zone: float | None = param(3.0, unit="m", gt=0, description="strides are stair "
-                                     "strides only this close to a stair of the building "
-                                     "(null: anywhere; the paper's classifier has no map)")
+    stair_zone: float | None = param(3.0, unit="m", gt=0, description="the building's "
+                                     "flights are followed: a stair stride counts only "
+                                     "this close to (beyond half the width of) a flight's "
+                                     "walking line, going along it from the end at the "
+                                     "current level, and the height is set to the level "
+                                     "a flight ends on once it is completed or left "
+                                     "(null: the paper's free stair counting anywhere, "
+                                     "no map)")
+    flight_complete: float = param(0.5, gt=0, le=1, description="a flight is completed "
+                                   "when at least this share of its stairs were counted "
+                                   "when the agent leaves it (else the agent went back)")
     stair_sigma: float = param(0.02, unit="m", ge=0, description="height noise per counted stair")
-    floor_snap: float = param(0.5, unit="m", ge=0, description="at the end of a flight, a "
-                              "height this close to a floor level or a stair landing is "
-                              "set to it (0: off)")
+    floor_snap: float = param(0.5, unit="m", ge=0, description="without the flights "
+                              "(stair_zone null or height_source 'ins'): at the end of a "
+                              "run of stair strides, a height this close to a floor level "
+                              "or a landing is set to it (0: off)")
     max_stairs_per_stride: int = param(2, ge=1, description="most stairs counted in one "
                                        "stride of the instrumented foot (two steps)")
     gait_source: Literal["stride", "odometry"] = param(
@@ -86,6 +96,11 @@ class PdrEkfParams(Params):
                              "reader from the tag's site at the strongest read (1 sigma)")
     tag_sigma_z: float = param(0.1, unit="m", gt=0, description="height of the agent at a tag "
                                "site vs. its floor level (1 sigma)")
+    tag_level_gate: float | None = param(1.0, unit="m", gt=0, description="a tag read "
+                                         "farther than this from the estimated height "
+                                         "sets the height to the tag's floor level (a "
+                                         "flight was missed); null: only the Gaussian "
+                                         "update with tag_sigma_z")
     tag_gate: float | None = param(5.0, gt=0, description="horizontal Mahalanobis distance "
                                    "beyond which a tag detection means the filter has lost "
                                    "track (null: never)")
@@ -129,6 +144,12 @@ class PdrEkfParams(Params):
     def gait_config(self) -> GaitConfig:
         return GaitConfig(step_height=self.step_height, min_rise=self.stair_min_rise,
                           stair_slope=self.stair_slope)
+
+    def flight_config(self) -> FlightConfig:
+        return FlightConfig(complete_fraction=self.flight_complete,
+                            max_per_stride=self.max_stairs_per_stride,
+                            step_height=None if self.step_height_from_building
+                            else self.step_height)
 
     def door_config(self) -> DoorHeadingConfig:
         return DoorHeadingConfig(strides=self.door_strides, clear_distance=self.door_clear_distance,

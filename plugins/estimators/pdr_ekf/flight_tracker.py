@@ -1,0 +1,191 @@
+"""Height from the building's stair flights: the floor changes when a flight is completed.
+
+Counting stairs stride by stride (the paper's "MEMS Navigation Module") lets every
+error of the foot INS's height reach the floor output: on the simulated Xsens MTx
+grade a descending stride of two 17.5 cm stairs shows only -0.27 m on average, and the
+level strides on a landing right after a descent +0.08 m, enough to be counted as a
+climb. With the building's flights (:mod:`.height`) the per-stride evidence only has to
+say *whether* the agent walks a flight, not exactly how high:
+
+* a stair stride (gait class SC, SDF or SDB, :mod:`.gait`) **enters** a flight only
+  where the building has one going that way: from its lower end when climbing, from its
+  upper end when descending, that end's level within half the flight's rise of the
+  estimated height, the estimated position within the stair zone of its walking line,
+  and the stride's horizontal displacement going along the flight in the climb (or
+  descent) direction. Whatever the facing: a backward descent moves down the flight
+  too. Stair-like strides anywhere else are level (a landing crossed sideways, a
+  corridor);
+* on the flight, each stride going on along it in the run's direction counts its
+  stairs: the larger of the rise's and the stride length's number of stairs (rise over
+  the stair's rise, length over its tread), rounded, one to ``max_per_stride`` (the
+  INS measures the length of a stride far better than its rise). The height is the
+  entry level plus the counted stairs, never beyond the far end. One stride that goes
+  on along the flight but that the gait calls level, or, after two stair strides, even
+  the other way by its rise (an INS glitch: turning back moves back along the flight),
+  is counted by its length; a second one in a row ends the run. Strides shorter than ``min_treads`` treads
+  (shuffling, turning on the spot) neither count nor end the run;
+* the run **ends** with a stride that leaves the flight's line or turns back, a second
+  level stride, or a stride after every stair of the flight was counted. The flight is
+  then **completed** when at least ``complete_fraction`` of its stairs were counted
+  *and* the INS height changed by at least ``rise_fraction`` of its rise (strides
+  against the run count as zero; the simulated INS shows 0.76 of a descent, one stride
+  may be lost to the entry, a false run on a landing shows 0.2): the height is set to
+  the level of its far end. Otherwise the
+  agent **left** it where it entered (a few stair-like strides on a landing, or turning
+  back), and the height goes back to that level. The stride that ended a run may enter
+  the next flight.
+
+The ``still`` strides (rest events) neither count nor end a run.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .height import Flight, StairFlights
+
+__all__ = ["FlightConfig", "FlightStep", "FlightTracker"]
+
+#: Gait classes -> direction of travel on a flight (+1 up, -1 down, 0 level).
+GAIT_SIGN = {"SC": 1, "SDF": -1, "SDB": -1, "FW": 0}
+
+
+@dataclass(frozen=True)
+class FlightConfig:
+    """Thresholds of the flight tracker (SI units)."""
+
+    axis_cos: float = math.cos(math.radians(60.0))   # stride direction vs. flight axis
+    min_treads: float = 0.5        # a stride on a flight advances at least this many treads
+    complete_fraction: float = 0.5  # share of a flight's stairs that completes it ...
+    rise_fraction: float = 0.4     # ... with this share of its rise in the INS height
+    max_per_stride: int = 2        # stairs per stride of the instrumented foot
+    step_height: float | None = None   # [m] counted rise of one stair (None: the flight's)
+
+
+@dataclass(frozen=True)
+class FlightStep:
+    """What one stride did to the height: ``z`` [m] after it; ``stairs`` counted on it
+    (signed); ``settled`` True when ``z`` was just set from the building (a run ended at
+    a level, or began at one); ``ended`` '', 'complete' or 'left', ``entered`` True when
+    a run began, with the ``flight`` concerned; ``vetoed`` True for a stair-like stride
+    that is no flight's (a level stride)."""
+
+    z: float
+    stairs: int = 0
+    settled: bool = False
+    ended: str = ""
+    entered: bool = False
+    flight: Flight | None = None
+    vetoed: bool = False
+
+
+@dataclass
+class _Run:
+    flight: Flight
+    sign: int
+    z0: float            # level of the end entered by [m]
+    stairs: int = 0      # counted so far
+    strides: int = 1     # stair strides of the run's sign
+    rise: float = 0.0    # INS height change in the run's direction, strides against it as 0 [m]
+    misses: int = 0      # consecutive level strides along the flight
+
+    @property
+    def full(self) -> bool:
+        return self.stairs >= self.flight.steps
+
+    def height(self) -> float:
+        return self.z0 + self.sign * min(self.stairs, self.flight.steps) * self.flight.step_rise
+
+
+class FlightTracker:
+    """Per-agent state machine over the building's flights (module docstring)."""
+
+    def __init__(self, flights: StairFlights, config: FlightConfig | None = None):
+        self.flights = flights
+        self.cfg = config or FlightConfig()
+        self.run: _Run | None = None
+
+    def stride(self, gait: str, dz: float, d: np.ndarray, xy: np.ndarray, z: float
+               ) -> FlightStep:
+        """One stride: gait class, drift-corrected INS height change ``dz`` [m],
+        horizontal displacement ``d`` (2,) [m] and end position ``xy`` (2,) [m] in the
+        building frame, estimated height ``z`` [m] before it."""
+        if gait == "still":
+            return FlightStep(z)
+        sign = GAIT_SIGN.get(gait, 0)
+        if self.run is not None:
+            step = self._continue(sign, dz, d, xy)
+            if step is not None:
+                return step
+            ended = self._end()
+            entered = self._enter(sign, dz, d, xy, ended.z)
+            if entered.entered:
+                return replace(entered, ended=ended.ended)
+            return replace(ended, vetoed=entered.vetoed)
+        return self._enter(sign, dz, d, xy, z)
+
+    def abandon(self) -> None:
+        """Forget the run being walked (the height was set from elsewhere, e.g. a tag)."""
+        self.run = None
+
+    # -- a run on a flight ---------------------------------------------------------------
+    def _continue(self, sign: int, dz: float, d: np.ndarray, xy: np.ndarray) -> FlightStep | None:
+        """The stride goes on along the run's flight (its step), or None: the run ends."""
+        run = self.run
+        f = run.flight
+        length = float(np.hypot(*d))
+        if length < self.cfg.min_treads * f.tread:
+            return FlightStep(run.height())     # shuffling on the spot: no stair, no exit
+        if run.full or not self._along(f, run.sign, d, xy) or (sign == -run.sign
+                                                                and run.strides < 2):
+            return None
+        run.rise += max(0.0, run.sign * dz)
+        if sign == run.sign:
+            run.misses = 0
+            run.strides += 1
+            n = self._count(f, dz, length)
+        else:          # along the flight but level or even against it by its rise:
+            run.misses += 1                     # the INS missed the stairs (once)
+            if run.misses > 1:
+                return None
+            n = self._count(f, 0.0, length)
+        run.stairs += n
+        return FlightStep(run.height(), run.sign * n)
+
+    def _along(self, f: Flight, sign: int, d: np.ndarray, xy: np.ndarray) -> bool:
+        """Whether displacement ``d`` ending at ``xy`` goes along flight ``f`` upwards
+        (``sign`` +1) or downwards (-1), by at least ``min_treads`` treads."""
+        _, axis = f.locate(xy)
+        advance = sign * float(d @ axis)
+        return (advance >= self.cfg.axis_cos * float(np.hypot(*d))
+                and advance >= self.cfg.min_treads * f.tread)
+
+    def _count(self, f: Flight, dz: float, length: float) -> int:
+        """Stairs of one stride on flight ``f``: rise ``dz`` [m] or horizontal ``length``
+        [m] in treads, whichever is more, rounded, 1 to ``max_per_stride``."""
+        rise = self.cfg.step_height or f.step_rise
+        n = round(max(abs(dz) / rise, length / f.tread))
+        return int(min(max(n, 1), self.cfg.max_per_stride))
+
+    def _end(self) -> FlightStep:
+        run, self.run = self.run, None
+        f = run.flight
+        if (run.stairs >= self.cfg.complete_fraction * f.steps
+                and run.rise >= self.cfg.rise_fraction * f.rise):
+            far = f.z_hi if run.sign > 0 else f.z_lo
+            return FlightStep(far, settled=True, ended="complete", flight=f)
+        return FlightStep(run.z0, settled=True, ended="left", flight=f)
+
+    def _enter(self, sign: int, dz: float, d: np.ndarray, xy: np.ndarray, z: float
+               ) -> FlightStep:
+        if sign == 0:
+            return FlightStep(z)
+        f = self.flights.entry(xy, z, sign, d, self.cfg.axis_cos, self.cfg.min_treads)
+        if f is None:
+            return FlightStep(z, vetoed=True)
+        self.run = _Run(f, sign, f.end(sign)[1], stairs=self._count(f, dz, float(np.hypot(*d))),
+                        rise=max(0.0, sign * dz))
+        return FlightStep(self.run.height(), sign * self.run.stairs, True, entered=True,
+                          flight=f)
