@@ -251,6 +251,141 @@ def test_optimize_reaches_the_nonlinear_least_squares_optimum():
         np.testing.assert_allclose(gen.estimate(n), ref[2 * k:2 * k + 2], atol=1e-7)
 
 
+def heading_chain(gen, dense, rng, steps: int, window: int | None = None, fixes=(7, 13)):
+    """A walker with heading states: ``h_k = F h_k-1`` (linear edges), steps turned by
+    ``psi_k`` (rotated positions), position fixes to the base every so often. With
+    re-linearisation off each rotated position is the linear row taken at the heading
+    estimate it was added at, which is what the dense reference gets."""
+    d = gen.d
+    gen.add_anchor("base", np.zeros(d))
+    dense.anchors["base"] = np.zeros(d)
+    gen.add_node("h0")
+    prior = np.diag([0.05 ** 2, 0.01 ** 2, 0.03 ** 2])
+    gen.add_linear(["h0"], np.eye(d), prior, np.zeros(d))
+    dense.unknowns.append("h0")
+    dense.rows.append((("h0",), (np.eye(d),), np.zeros(d), prior))
+    gen.add_node("x0")
+    gen.add_relative_position("x0", "base", np.zeros(d), 0.01 * np.eye(d))
+    dense.unknowns.append("x0")
+    dense.relative("x0", "base", np.zeros(d), 0.01 * np.eye(d))
+    live = ["h0", "x0"]
+    truth = np.zeros(d)
+    for k in range(1, steps):
+        h, x = f"h{k}", f"x{k}"
+        dtheta = math.pi / 2 if k % 10 == 0 else 0.0
+        F = np.array([[1.0, 1.0, dtheta], [0, 1, 0], [0, 0, 1]])
+        q = np.diag([1e-4, 1e-6, 1e-6])
+        gen.add_node(h)
+        gen.add_linear([h, f"h{k - 1}"], np.hstack([np.eye(d), -F]), q, np.zeros(d))
+        dense.unknowns.append(h)
+        dense.rows.append(((h, f"h{k - 1}"), (np.eye(d), -F), np.zeros(d), q))
+        step = np.array([math.cos(k / 10), math.sin(k / 10), 0.0]) + rng.normal(size=d) * 0.05
+        truth = truth + step
+        psi = gen.estimate(h)[0]
+        gen.add_node(x)
+        cov = 0.02 * np.eye(d)
+        gen.add_rotated_position(x, f"x{k - 1}", h, step, cov)
+        c, s_ = math.cos(psi), math.sin(psi)
+        turned = np.array([c * step[0] - s_ * step[1], s_ * step[0] + c * step[1], step[2]])
+        g = np.array([-turned[1], turned[0], 0.0])
+        gh = np.zeros((d, d))
+        gh[:, 0] = -g
+        dense.unknowns.append(x)
+        dense.rows.append(((x, f"x{k - 1}", h), (np.eye(d), -np.eye(d), gh), turned - g * psi,
+                           cov))
+        if k % fixes[0] == 0 or k % fixes[1] == 0:
+            z = truth + rng.normal(size=d) * 0.3
+            gen.add_relative_position(x, "base", z, 0.09 * np.eye(d))
+            dense.relative(x, "base", z, 0.09 * np.eye(d))
+        live += [h, x]
+        if window is not None and len(live) > 2 * window:
+            for old in live[:2]:
+                gen.delete_node(old)
+            live = live[2:]
+        yield gen, dense, live
+
+
+@pytest.mark.parametrize("max_active_dims", [10 ** 6, 30])
+def test_heading_states_equal_dense_blue_after_every_update(max_active_dims):
+    """Linear edges and rotated positions (linearised as in eqs. 18-19) give the dense
+    BLUE after every update, through bordering, activations and refactorisations."""
+    gen = GeneralizedElectricalNetwork(3, relinearize_sigma=math.inf,
+                                       max_active_dims=max_active_dims, hot_nodes=3)
+    for gen, dense, _ in heading_chain(gen, DenseGraph(3), np.random.default_rng(11), 40):
+        assert_matches_dense(gen, dense)
+    assert gen.edge_count()["rotated_position"] == 39 and gen.edge_count()["linear"] == 40
+
+
+def test_sliding_window_with_heading_states_is_exact():
+    """Deleting old states and heading states (eq. 17) keeps the BLUE of the full graph
+    when nothing is re-linearised."""
+    gen = GeneralizedElectricalNetwork(3, relinearize_sigma=math.inf, max_active_dims=60,
+                                       hot_nodes=3)
+    for gen, dense, live in heading_chain(gen, DenseGraph(3), np.random.default_rng(12), 60,
+                                          window=4):
+        pass
+    est, sigma, col = dense.solve()
+    assert len([k for k in dense.unknowns if k in gen]) == 8
+    for key in live:
+        np.testing.assert_allclose(gen.estimate(key), est[key], atol=TOL)
+        i = col[key] * 3
+        np.testing.assert_allclose(gen.covariance(key), sigma[i:i + 3, i:i + 3], atol=TOL)
+
+
+def test_optimize_with_rotated_positions_reaches_the_nonlinear_optimum():
+    """A walk whose odometry is turned by an unknown 40 degrees, closed by two fixes:
+    re-linearising the rotated positions to convergence solves the non-linear problem
+    (scipy's least_squares on the same residuals), whatever the first linearisation."""
+    rng = np.random.default_rng(13)
+    true_psi = math.radians(40.0)
+    steps = [np.array([2.0, 0.0]), np.array([2.0, 0.5]), np.array([0.0, 2.0]),
+             np.array([-1.0, 1.5])]
+    gen = GeneralizedElectricalNetwork(2)
+    gen.add_anchor("base", [0.0, 0.0])
+    gen.add_node("h")
+    gen.add_linear(["h"], np.eye(2), np.diag([1.0, 1.0]), np.zeros(2))
+    gen.add_node("x0")
+    gen.add_relative_position("x0", "base", [0.0, 0.0], 0.01 * np.eye(2))
+    truth = np.zeros(2)
+    meas = []
+    c, s_ = math.cos(true_psi), math.sin(true_psi)
+    for k, st in enumerate(steps, 1):
+        truth = truth + st
+        z = np.array([c * st[0] + s_ * st[1], -s_ * st[0] + c * st[1]])  # R(-psi) step
+        z = z + rng.normal(size=2) * 0.05
+        gen.add_node(f"x{k}")
+        gen.add_rotated_position(f"x{k}", f"x{k - 1}", "h", z, 0.0025 * np.eye(2))
+        meas.append((k, z))
+    fixes = {2: truth_at(steps, 2) + rng.normal(size=2) * 0.1,
+             4: truth_at(steps, 4) + rng.normal(size=2) * 0.1}
+    for k, z in fixes.items():
+        gen.add_relative_position(f"x{k}", "base", z, 0.01 * np.eye(2))
+    gen.optimize()
+    names = ["h"] + [f"x{k}" for k in range(5)]
+
+    def residuals(v):
+        x = {n: v[2 * i:2 * i + 2] for i, n in enumerate(names)}
+        out = list(x["h"])                                    # prior (0, 0), unit sigma
+        out.extend(x["x0"] / 0.1)
+        ch, sh = math.cos(x["h"][0]), math.sin(x["h"][0])
+        for k, z in meas:
+            turned = np.array([ch * z[0] - sh * z[1], sh * z[0] + ch * z[1]])
+            out.extend((x[f"x{k}"] - x[f"x{k - 1}"] - turned) / 0.05)
+        for k, z in fixes.items():
+            out.extend((x[f"x{k}"] - z) / 0.1)
+        return np.array(out)
+
+    v0 = np.concatenate([gen.estimate(n) for n in names]) + 0.05
+    ref = least_squares(residuals, v0, xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+    for i, n in enumerate(names):
+        np.testing.assert_allclose(gen.estimate(n), ref[2 * i:2 * i + 2], atol=1e-7)
+    assert abs(gen.estimate("h")[0] - true_psi) < math.radians(5.0)
+
+
+def truth_at(steps, k):
+    return np.sum(steps[:k], axis=0)
+
+
 def lattice(dim: int, side: int) -> tuple[GeneralizedElectricalNetwork, dict]:
     """A ``side``^dim lattice of unit relative-position edges (P = I), anchored at the
     centre node (the reference o of the paper's table); plain batch solver."""
@@ -345,6 +480,17 @@ def test_bad_input_is_refused_with_clear_errors():
         gen.delete_node("base")
     with pytest.raises(ValueError, match="finite position"):
         gen.add_anchor("b2", [0, np.inf, 0])
+    gen.add_node("h")
+    with pytest.raises(ValueError, match="J must be"):
+        gen.add_linear(["h"], np.eye(2), np.eye(3), np.zeros(3))
+    with pytest.raises(ValueError, match="not positive definite"):
+        gen.add_linear(["h"], np.eye(3), np.zeros((3, 3)), np.zeros(3))
+    with pytest.raises(ValueError, match="not finite"):
+        gen.add_linear(["h"], np.eye(3), np.eye(3), [0, np.nan, 0])
+    with pytest.raises(ValueError, match="distinct nodes"):
+        gen.add_linear(["h", "h"], np.eye(3, 6), np.eye(3), np.zeros(3))
+    with pytest.raises(ValueError, match="three different nodes"):
+        gen.add_rotated_position("a", "base", "a", [1, 0, 0], np.eye(3))
     gen.add_relative_position("a", "base", [1, 0, 0], np.eye(3))
     gen.delete_node("a")
     with pytest.raises(KeyError, match="deleted"):

@@ -128,7 +128,8 @@ class BatchBlue:
         return np.zeros((len(nodes), self.d))
 
     def estimate(self, nodes: Sequence[int]) -> np.ndarray:
-        return self._x[self._blocks(nodes)]
+        blocks = self._blocks(nodes)        # first: it may re-solve and replace self._x
+        return self._x[blocks]
 
     def covariance(self, nodes: Sequence[int]) -> np.ndarray:
         blocks = self._blocks(nodes)

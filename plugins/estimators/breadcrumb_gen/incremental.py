@@ -19,12 +19,12 @@ part and O), so ``x_j = x_f,j + w^T (x_O - x_f,O)`` and ``Sigma_jA = w^T Sigma_O
 with ``w = Sigma_f,OO^-1 Sigma_f,Oj`` taken from the factor. The same identity gives all
 untouched estimates with a single solve (:meth:`IncrementalBlue.full_estimate`).
 
-A new node is *bordered* from the relative-position edge that introduces it (AddNode,
-eq. 13, followed by AddMeasurement, eq. 11): ``x_n = x_p + zeta``,
+A new node is *bordered* from the edge that introduces it (AddNode, eq. 13, followed by
+AddMeasurement, eq. 11): for a relative position ``x_n = x_p + zeta``,
 ``Sigma_n. = Sigma_p.``, ``Sigma_nn = Sigma_pp + P``, which is exactly the BLUE of the
-graph with that edge. Deleting a node (marginalisation, eqs. 15/17) leaves the others'
-marginal untouched, so the solver only hides it until the next rebuild, where the
-network passes the Schur-complemented system.
+graph with that edge (likewise for any edge ``x_n = z + sum G_m x_m``). Deleting a node
+(marginalisation, eqs. 15/17) leaves the others' marginal untouched, so the solver only
+hides it until the next rebuild, where the network passes the Schur-complemented system.
 
 Nodes are small integers (the network's node ids); ``d`` is the block size (3 in the
 paper: x, y, z).
@@ -181,32 +181,39 @@ class IncrementalBlue:
         return (blocks[:, None] * self.d + np.arange(self.d)).ravel()
 
     # -- the GEN operations -------------------------------------------------------------
-    def border(self, new: int, parent: int | None, z: np.ndarray, cov: np.ndarray,
-               anchor: np.ndarray | None = None) -> None:
-        """Add node ``new`` through one relative-position edge ``x_new - x_parent = z``.
+    def border(self, new: int, parents: Sequence[int], gains: Sequence[np.ndarray],
+               z: np.ndarray, cov: np.ndarray) -> None:
+        """Add node ``new`` through one edge that determines it from localised nodes:
+        ``x_new = z + sum_m G_m x_parents[m] + e``, ``e ~ (0, cov)``.
 
-        ``parent`` None means the other end is an anchor at ``anchor`` (eq. 12).
+        A relative position from a parent p is ``G = I``; an anchor is folded into ``z``
+        (eq. 12), leaving no parents. The edge adds no information on the parents (the new
+        node absorbs it), so the BLUE of the others is unchanged and
+        ``Sigma_n. = G Sigma_P.``, ``Sigma_nn = G Sigma_PP G^T + cov``.
         """
         self._grow_ids(new + 1)
         if self.is_represented(new) or new in self._hidden:
             raise ValueError(f"node {new} is already in the estimate")
-        if parent is not None:
-            self.activate([parent])
-            pd = self._dims([parent])
+        parents = list(parents)
+        if parents:
+            self.activate(parents)
+            pd = self._dims(parents)
+            G = np.hstack([np.asarray(g, float) for g in gains])
         t = self.active_dims
         nd = self._new_slots([new])
         sig, x = self._sig, self._x
-        if parent is None:
+        if not parents:
             sig[nd, :t] = 0.0
             sig[:t, nd] = 0.0
             sig[np.ix_(nd, nd)] = cov
-            x[nd] = np.asarray(anchor, float) + z
+            x[nd] = z
         else:
-            sig[nd, :t] = sig[pd, :t]
-            sig[:t, nd] = sig[:t, pd]
-            sig[np.ix_(nd, nd)] = sig[np.ix_(pd, pd)] + cov
-            x[nd] = x[pd] + z
-        self._touch_nodes([new] if parent is None else [new, parent])
+            cross = G @ sig[pd, :t]
+            sig[nd, :t] = cross
+            sig[:t, nd] = cross.T
+            sig[np.ix_(nd, nd)] = cross[:, pd] @ G.T + cov
+            x[nd] = z + G @ x[pd]
+        self._touch_nodes([new, *parents])
 
     def update(self, nodes: Sequence[int], J: np.ndarray, R: np.ndarray, y: np.ndarray) -> None:
         """Add the linear(ised) measurement ``y = J x_nodes + e``, ``e ~ (0, R)``.

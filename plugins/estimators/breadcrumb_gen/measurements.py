@@ -1,9 +1,14 @@
 """Measurement models of the relative measurement graph and their linearisation (§IV, §IV-D).
 
-Two binary measurements connect nodes i and j (eq. 1, ``z_ij = h(x_i, x_j) + e_ij``):
+Binary measurements connect nodes i and j (eq. 1, ``z_ij = h(x_i, x_j) + e_ij``):
 
-* relative position (PDR / INS odometry, drop links, encounters): ``zeta_ij = x_i - x_j``,
-  linear, Jacobian blocks ``+I`` and ``-I``;
+* relative position (drop links, encounters, odometry without heading states):
+  ``zeta_ij = x_i - x_j``, linear, Jacobian blocks ``+I`` and ``-I``;
+* rotated relative position (INS odometry with a heading state, beyond the paper):
+  ``x_i - x_j = R_z(psi_h) zeta``, where ``psi_h`` is the first component of a third
+  node h, the correction of the INS heading. Linearised at ``psi^`` like a range
+  (eqs. 18-19): blocks ``+I``, ``-I`` and ``-g e_1^T`` with ``g = dR_z/dpsi(psi^) zeta``,
+  ``y = R_z(psi^) zeta - g psi^``;
 * relative range (RSSI): ``r_ij = ||x_i - x_j + o_ij||``, non-linear. ``o_ij`` is a
   constant offset between the node positions and the antennas (zero in the paper).
   It is linearised at the latest estimates ``x^`` with (eqs. 18-21)
@@ -59,3 +64,34 @@ def range_blocks(h: np.ndarray, y: np.ndarray, w: np.ndarray
     edges (eqs. 20, 21), with ``w = 1 / var`` the measurement information."""
     return (w[:, None, None] * h[:, :, None] * h[:, None, :],
             (w * y)[:, None] * h)
+
+
+def rotate_z(vectors: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Vectors (m, d) turned counter-clockwise by ``angle`` (m,) [rad] about z (the first two
+    components; d = 2 or 3)."""
+    v = np.array(vectors, float)
+    c, s = np.cos(angle), np.sin(angle)
+    x, y = v[:, 0].copy(), v[:, 1].copy()
+    v[:, 0] = c * x - s * y
+    v[:, 1] = s * x + c * y
+    return v
+
+
+def rotated_position_linearised(zeta: np.ndarray, psi: np.ndarray
+                                ) -> tuple[np.ndarray, np.ndarray]:
+    """``(g, y)`` of rotated relative positions ``x_i - x_j = R_z(psi_h) zeta`` linearised at
+    ``psi`` (m,): the factor reads ``x_i - x_j - g psi_h = y`` with
+    ``g = dR_z/dpsi zeta`` (m, d) and ``y = R_z(psi) zeta - g psi`` (m, d)."""
+    turned = rotate_z(zeta, psi)
+    g = np.zeros_like(turned)
+    g[:, 0], g[:, 1] = -turned[:, 1], turned[:, 0]
+    return g, turned - g * np.asarray(psi, float)[:, None]
+
+
+def rotated_position_miss(zeta: np.ndarray, psi_lin: np.ndarray, psi: np.ndarray
+                          ) -> np.ndarray:
+    """Linearisation error [m] (m,) at heading ``psi`` of rotated positions linearised at
+    ``psi_lin``: ``|R(psi) zeta - R(psi_lin) zeta - g (psi - psi_lin)|``
+    ``= |zeta_xy| |(cos a - 1, sin a - a)|`` with ``a = psi - psi_lin``."""
+    a = np.asarray(psi, float) - np.asarray(psi_lin, float)
+    return np.hypot(zeta[:, 0], zeta[:, 1]) * np.hypot(np.cos(a) - 1.0, np.sin(a) - a)

@@ -11,17 +11,23 @@ vectorised pass, and it applies the paper's operations incrementally:
 * :meth:`add_node` - AddNode (eq. 13): a new row/column with no information yet;
 * :meth:`add_relative_position`, :meth:`add_range` - AddMeasurement(+) (eqs. 11/12,
   18/19); ranges are linearised at the latest estimates;
+* :meth:`add_rotated_position` - a relative position measured in a frame turned by the
+  heading held in a third node (INS odometry with a heading state; beyond the paper),
+  linearised like a range; :meth:`add_linear` - any linear edge ``y = sum J_n x_n + e``
+  (e.g. the heading states' motion model);
 * :meth:`delete_node` - DeleteNode(+) by Schur complement (eq. 17): the node's edges are
   replaced by one dense *marginal* edge over its neighbours (ranges frozen at their
   linearisation point);
-* :meth:`relinearize` - re-evaluates eqs. 18-21 for ranges whose direction moved.
+* :meth:`relinearize` - re-evaluates eqs. 18-21 for ranges whose direction moved and
+  rotated positions whose heading moved.
 
 Estimates and covariances (eqs. 4, 5) come from an :class:`IncrementalBlue` kept in step
 with every operation; :meth:`assemble` and :func:`batch_blue` give the batch solution of
 the same system for checks and benchmarks.
 
-A node becomes *localised* when a relative-position edge ties it to a localised node or
-an anchor; until then its edges wait (a range alone cannot place a node) and it has no
+A node becomes *localised* when an edge determines it from localised nodes or anchors (a
+relative position, a rotated position, or a linear edge whose block on it is square and
+invertible); until then its edges wait (a range alone cannot place a node) and it has no
 estimate. Edges are applied in the order the network receives them.
 """
 from __future__ import annotations
@@ -38,12 +44,14 @@ import scipy.sparse as sp
 from .batch import BatchBlue, KirchhoffSystem, SingularNetworkError, batch_blue, factorize
 from .incremental import IncrementalBlue
 from .measurements import (range_blocks, range_direction, range_linearised,
-                           relative_position_blocks)
+                           relative_position_blocks, rotate_z, rotated_position_linearised,
+                           rotated_position_miss)
 
 __all__ = ["GeneralizedElectricalNetwork", "KirchhoffSystem", "batch_blue",
            "SingularNetworkError"]
 
-_POS, _RNG, _MRG = 0, 1, 2          # edge kinds: relative position, range, marginal
+# edge kinds: relative position, range, marginal, rotated position, linear
+_POS, _RNG, _MRG, _ROT, _LIN = 0, 1, 2, 3, 4
 
 
 class _Columns:
@@ -96,6 +104,21 @@ class _Marginal:
     applied: bool = False
 
 
+@dataclass
+class _Linear:
+    """A linear edge ``y = J x_nodes + e``, ``e ~ (0, R)``; ``lam = J^T R^-1 J`` and
+    ``eta = J^T R^-1 y`` are its Kirchhoff blocks (eqs. 7, 9)."""
+
+    nodes: np.ndarray
+    J: np.ndarray
+    R: np.ndarray
+    y: np.ndarray
+    lam: np.ndarray
+    eta: np.ndarray
+    alive: bool = True
+    applied: bool = False
+
+
 class GeneralizedElectricalNetwork:
     """Relative measurement graph with the GEN operations of §IV-C/D and exact estimates.
 
@@ -131,7 +154,11 @@ class GeneralizedElectricalNetwork:
         self._rng = _Columns(i=((), np.int64), j=((), np.int64), r=((), float),
                              var=((), float), off=((d,), float), li=((d,), float),
                              lj=((d,), float), alive=((), bool), applied=((), bool))
+        self._rot = _Columns(i=((), np.int64), j=((), np.int64), h=((), np.int64),
+                             z=((d,), float), cov=((d, d), float), info=((d, d), float),
+                             lin=((), float), alive=((), bool), applied=((), bool))
         self._mrg: list[_Marginal] = []
+        self._lin: list[_Linear] = []
         self._edges: dict[int, list[tuple[int, int]]] = defaultdict(list)   # node -> edges
         self._waiting: dict[int, list[tuple[int, int]]] = defaultdict(list)  # not localised
         self._deferred: list[tuple[list[int], np.ndarray, np.ndarray, np.ndarray]] = []
@@ -195,21 +222,9 @@ class GeneralizedElectricalNetwork:
         """AddMeasurement (eqs. 11, 12): ``zeta = x_i - x_j + e``, ``e ~ N(0, cov)``."""
         a, b = self.id_of(i), self.id_of(j)
         z = np.asarray(zeta, float)
-        cov = np.asarray(cov, float)
         if a == b:
             raise ValueError(f"a relative position needs two different nodes, got {i!r} twice")
-        if z.shape != (self.d,) or cov.shape != (self.d, self.d):
-            raise ValueError(f"relative position {i!r}-{j!r}: zeta must have shape ({self.d},) "
-                             f"and cov ({self.d}, {self.d}), got {z.shape} and {cov.shape}")
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(cov))):
-            raise ValueError(f"relative position {i!r}-{j!r} is not finite")
-        cov = 0.5 * (cov + cov.T)
-        try:
-            info = np.linalg.inv(np.linalg.cholesky(cov))
-        except np.linalg.LinAlgError:
-            raise ValueError(f"relative position {i!r}-{j!r}: covariance is not positive "
-                             "definite") from None
-        info = info.T @ info
+        info, cov = self._checked_cov(f"relative position {i!r}-{j!r}", z, cov)
         if a in self._anchor and b in self._anchor:
             raise ValueError(f"both {i!r} and {j!r} are anchors")
         fid = self._pos.append(i=a, j=b, z=z, cov=cov, info=info, alive=True, applied=False)
@@ -217,6 +232,82 @@ class GeneralizedElectricalNetwork:
         self._edges[b].append((_POS, fid))
         self._place(_POS, fid)
         return fid
+
+    def add_rotated_position(self, i: Hashable, j: Hashable, h: Hashable,
+                             zeta: Sequence[float], cov: np.ndarray) -> int:
+        """AddMeasurement+ of a relative position measured in a turned frame:
+        ``x_i - x_j = R_z(psi_h) zeta + e``, ``e ~ N(0, cov)``, where ``psi_h`` [rad] is the
+        first component of node ``h`` (a heading correction, counter-clockwise about z).
+
+        Linearised at the latest estimate of ``psi_h`` (eqs. 18-19 with
+        ``H = [I, -I, -g e_1^T]``, ``g = dR_z/dpsi zeta``) and re-linearised like a range.
+        """
+        a, b, c = self.id_of(i), self.id_of(j), self.id_of(h)
+        z = np.asarray(zeta, float)
+        if len({a, b, c}) < 3:
+            raise ValueError(f"a rotated position needs three different nodes, got {i!r}, "
+                             f"{j!r}, {h!r}")
+        info, cov = self._checked_cov(f"rotated position {i!r}-{j!r}", z, cov)
+        if a in self._anchor and b in self._anchor:
+            raise ValueError(f"both {i!r} and {j!r} are anchors")
+        fid = self._rot.append(i=a, j=b, h=c, z=z, cov=cov, info=info, lin=0.0, alive=True,
+                               applied=False)
+        for n in (a, b, c):
+            self._edges[n].append((_ROT, fid))
+        self._place(_ROT, fid)
+        return fid
+
+    def add_linear(self, nodes: Sequence[Hashable], J: np.ndarray, cov: np.ndarray,
+                   y: Sequence[float]) -> int:
+        """AddMeasurement of any linear edge ``y = J [x_n1; x_n2; ...] + e``, ``e ~ N(0, cov)``
+        (``J`` of shape (r, d * len(nodes))): ``L_NN += J^T cov^-1 J``,
+        ``b_N += J^T cov^-1 y`` (eqs. 7, 9, 11)."""
+        ids = [self.id_of(k) for k in nodes]
+        J = np.asarray(J, float)
+        y = np.asarray(y, float).reshape(-1)
+        cov = np.asarray(cov, float)
+        r = len(y)
+        if not ids or len(set(ids)) != len(ids):
+            raise ValueError(f"a linear edge needs distinct nodes, got {list(nodes)!r}")
+        if J.shape != (r, self.d * len(ids)) or cov.shape != (r, r):
+            raise ValueError(f"linear edge over {list(nodes)!r}: J must be ({r}, "
+                             f"{self.d * len(ids)}) and cov ({r}, {r}), got {J.shape} and "
+                             f"{cov.shape}")
+        if not (np.all(np.isfinite(J)) and np.all(np.isfinite(y))
+                and np.all(np.isfinite(cov))):
+            raise ValueError(f"linear edge over {list(nodes)!r} is not finite")
+        if all(n in self._anchor for n in ids):
+            raise ValueError(f"linear edge over anchors only: {list(nodes)!r}")
+        cov = 0.5 * (cov + cov.T)
+        try:
+            w = np.linalg.inv(np.linalg.cholesky(cov))
+        except np.linalg.LinAlgError:
+            raise ValueError(f"linear edge over {list(nodes)!r}: covariance is not positive "
+                             "definite") from None
+        w = w.T @ w
+        fid = len(self._lin)
+        self._lin.append(_Linear(np.asarray(ids, np.int64), J, cov, y, J.T @ w @ J,
+                                 J.T @ w @ y))
+        for n in ids:
+            self._edges[n].append((_LIN, fid))
+        self._place(_LIN, fid)
+        return fid
+
+    def _checked_cov(self, what: str, z: np.ndarray, cov: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """(information, symmetrised covariance) of a d-vector measurement, or a clear error."""
+        cov = np.asarray(cov, float)
+        if z.shape != (self.d,) or cov.shape != (self.d, self.d):
+            raise ValueError(f"{what}: zeta must have shape ({self.d},) and cov ({self.d}, "
+                             f"{self.d}), got {z.shape} and {cov.shape}")
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(cov))):
+            raise ValueError(f"{what} is not finite")
+        cov = 0.5 * (cov + cov.T)
+        try:
+            info = np.linalg.inv(np.linalg.cholesky(cov))
+        except np.linalg.LinAlgError:
+            raise ValueError(f"{what}: covariance is not positive definite") from None
+        return info.T @ info, cov
 
     def add_range(self, i: Hashable, j: Hashable, r: float, var: float,
                   offset: Sequence[float] | None = None) -> int:
@@ -269,6 +360,10 @@ class GeneralizedElectricalNetwork:
             return [int(self._pos.i[fid]), int(self._pos.j[fid])]
         if kind == _RNG:
             return [int(self._rng.i[fid]), int(self._rng.j[fid])]
+        if kind == _ROT:
+            return [int(self._rot.i[fid]), int(self._rot.j[fid]), int(self._rot.h[fid])]
+        if kind == _LIN:
+            return [int(n) for n in self._lin[fid].nodes]
         return [int(n) for n in self._mrg[fid].nodes]
 
     def _place(self, kind: int, fid: int) -> None:
@@ -287,33 +382,83 @@ class GeneralizedElectricalNetwork:
             loose = [n for n in nodes if not self._localised[n]]
             if not loose:
                 self._apply(kind, fid)
-            elif kind == _POS and len(loose) == 1:
-                self._localise_through(fid, loose[0])
+            elif len(loose) == 1 and self._determines(kind, fid, loose[0]):
+                self._localise_through(kind, fid, loose[0])
                 queue.extend(self._waiting.pop(loose[0], []))
             else:
                 for n in loose:
                     if (kind, fid) not in self._waiting[n]:
                         self._waiting[n].append((kind, fid))
 
-    def _localise_through(self, fid: int, new: int) -> None:
-        """Border ``new`` into the estimate via relative-position edge ``fid``."""
-        pos = self._pos
-        i, j = int(pos.i[fid]), int(pos.j[fid])
-        other = j if new == i else i
-        z = pos.z[fid] if new == i else -pos.z[fid]       # x_new - x_other
+    def _determines(self, kind: int, fid: int, node: int) -> bool:
+        """Whether edge ``fid`` alone places ``node`` given its other nodes."""
+        if kind == _POS:
+            return True
+        if kind == _ROT:
+            return node != int(self._rot.h[fid])
+        if kind == _LIN:
+            e = self._lin[fid]
+            k = int(np.flatnonzero(e.nodes == node)[0])
+            blk = e.J[:, k * self.d:(k + 1) * self.d]
+            return blk.shape[0] == self.d and np.linalg.cond(blk) < 1e12
+        return False
+
+    def _localise_through(self, kind: int, fid: int, new: int) -> None:
+        """Border ``new`` into the estimate via edge ``fid``, which determines it:
+        ``J_new x_new = y - sum J_m x_m - e`` gives ``x_new = z + sum G_m x_m``."""
         self._flush()
-        if other in self._anchor:
-            self.solver.border(new, None, z, pos.cov[fid], anchor=self._anchor[other])
-        else:
-            self.solver.border(new, other, z, pos.cov[fid])
-        pos.applied[fid] = True
+        if kind == _ROT:
+            self._rot.lin[fid] = self._psi_estimates(self._rot.h[fid:fid + 1])[0]
+        nodes, blocks, R, y = self._edge_blocks(kind, fid)
+        k = nodes.index(new)
+        inv = np.linalg.inv(blocks[k])
+        parents, gains = [], []
+        z = inv @ y
+        for n, blk in zip(nodes, blocks):
+            if n == new:
+                continue
+            if n in self._anchor:
+                z = z - inv @ blk @ self._anchor[n]
+            else:
+                parents.append(n)
+                gains.append(-inv @ blk)
+        self.solver.border(new, parents, gains, z, inv @ R @ inv.T)
+        self._set_applied(kind, fid)
         self._localised[new] = True
+
+    def _psi_estimates(self, heading_nodes: np.ndarray) -> np.ndarray:
+        """Current heading components [rad] of heading nodes (anchors: their first value)."""
+        out = np.zeros(len(heading_nodes))
+        free = [k for k, n in enumerate(heading_nodes) if int(n) not in self._anchor]
+        if free:
+            est = self.solver.estimate([int(heading_nodes[k]) for k in free])
+            out[free] = est[:, 0]
+        for k, n in enumerate(heading_nodes):
+            if int(n) in self._anchor:
+                out[k] = self._anchor[int(n)][0]
+        return out
+
+    def _set_applied(self, kind: int, fid: int) -> None:
+        if kind == _POS:
+            self._pos.applied[fid] = True
+        elif kind == _RNG:
+            self._rng.applied[fid] = True
+        elif kind == _ROT:
+            self._rot.applied[fid] = True
+        elif kind == _LIN:
+            self._lin[fid].applied = True
+        else:
+            self._mrg[fid].applied = True
 
     def _is_live(self, kind: int, fid: int) -> bool:
         if kind == _POS:
             return bool(self._pos.alive[fid])
         if kind == _RNG:
             return bool(self._rng.alive[fid])
+        if kind == _ROT:
+            return bool(self._rot.alive[fid])
+        if kind == _LIN:
+            return self._lin[fid].alive
         return self._mrg[fid].alive
 
     def _is_applied(self, kind: int, fid: int) -> bool:
@@ -321,6 +466,10 @@ class GeneralizedElectricalNetwork:
             return bool(self._pos.applied[fid])
         if kind == _RNG:
             return bool(self._rng.applied[fid])
+        if kind == _ROT:
+            return bool(self._rot.applied[fid])
+        if kind == _LIN:
+            return self._lin[fid].applied
         return self._mrg[fid].applied
 
     def _apply(self, kind: int, fid: int) -> None:
@@ -328,10 +477,9 @@ class GeneralizedElectricalNetwork:
         if kind == _RNG:
             self._apply_ranges(np.array([fid]))
             return
-        if kind == _POS:
-            self._pos.applied[fid] = True
-        else:
-            self._mrg[fid].applied = True
+        if kind == _ROT:
+            self._rot.lin[fid] = self._psi_estimates(self._rot.h[fid:fid + 1])[0]
+        self._set_applied(kind, fid)
         nodes, J, R, y = self._linear_form(kind, fid)
         if nodes:
             self._defer(nodes, J, R, y)
@@ -377,11 +525,36 @@ class GeneralizedElectricalNetwork:
             mask[list(self._anchor)] = True
         return mask
 
+    def _edge_blocks(self, kind: int, fid: int
+                     ) -> tuple[list[int], list[np.ndarray], np.ndarray, np.ndarray]:
+        """The edge as ``y = sum_n J_n x_n + e``, ``e ~ (0, R)``: its nodes (anchors
+        included), their blocks ``J_n``, ``R`` and ``y``. Non-linear edges are taken at their
+        linearisation point (eqs. 18-19). Not for marginal edges."""
+        d = self.d
+        if kind == _POS:
+            t = self._pos
+            return ([int(t.i[fid]), int(t.j[fid])], [np.eye(d), -np.eye(d)], t.cov[fid],
+                    t.z[fid].copy())
+        if kind == _RNG:
+            t = self._rng
+            h, yv = range_linearised(t.r[fid:fid + 1], t.li[fid:fid + 1], t.lj[fid:fid + 1],
+                                     t.off[fid], self.eps)
+            return ([int(t.i[fid]), int(t.j[fid])], [h, -h], np.array([[t.var[fid]]]), yv)
+        if kind == _ROT:
+            t = self._rot
+            g, yv = rotated_position_linearised(t.z[fid:fid + 1], t.lin[fid:fid + 1])
+            gh = np.zeros((d, d))
+            gh[:, 0] = -g[0]
+            return ([int(t.i[fid]), int(t.j[fid]), int(t.h[fid])],
+                    [np.eye(d), -np.eye(d), gh], t.cov[fid], yv[0])
+        e = self._lin[fid]
+        return ([int(n) for n in e.nodes],
+                [e.J[:, k * d:(k + 1) * d] for k in range(len(e.nodes))], e.R, e.y.copy())
+
     def _linear_form(self, kind: int, fid: int
                      ) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
         """The edge as ``y = J x_N + e``, ``e ~ (0, R)`` over its non-anchor nodes N, with
         anchors folded into ``y`` (eq. 12)."""
-        d = self.d
         if kind == _MRG:
             m = self._mrg[fid]
             lam, vec = np.linalg.eigh(0.5 * (m.lam + m.lam.T))
@@ -391,20 +564,9 @@ class GeneralizedElectricalNetwork:
             J = vec[:, keep].T
             return ([int(n) for n in m.nodes], J, np.diag(1.0 / lam[keep]),
                     (J @ m.eta) / lam[keep])
-        if kind == _POS:
-            t = self._pos
-            i, j = int(t.i[fid]), int(t.j[fid])
-            blocks = [np.eye(d), -np.eye(d)]
-            y, R = t.z[fid].copy(), t.cov[fid]
-        else:
-            t = self._rng
-            i, j = int(t.i[fid]), int(t.j[fid])
-            h, yv = range_linearised(t.r[fid:fid + 1], t.li[fid:fid + 1], t.lj[fid:fid + 1],
-                                     t.off[fid], self.eps)
-            blocks = [h, -h]
-            y, R = yv, np.array([[t.var[fid]]])
+        all_nodes, blocks, R, y = self._edge_blocks(kind, fid)
         nodes, cols = [], []
-        for n, blk in zip((i, j), blocks):
+        for n, blk in zip(all_nodes, blocks):
             if n in self._anchor:
                 y = y - blk @ self._anchor[n]
             else:
@@ -504,6 +666,10 @@ class GeneralizedElectricalNetwork:
             self._pos.alive[fid] = False
         elif kind == _RNG:
             self._rng.alive[fid] = False
+        elif kind == _ROT:
+            self._rot.alive[fid] = False
+        elif kind == _LIN:
+            self._lin[fid].alive = False
         else:
             self._mrg[fid].alive = False
         for n in self._edge_nodes(kind, fid):
@@ -527,27 +693,34 @@ class GeneralizedElectricalNetwork:
             out[ids == nid] = pos
         return out
 
-    def stale_ranges(self, tol_sigma: float) -> int:
-        """How many ranges between nodes whose estimates are at hand (active in the
+    def stale_edges(self, tol_sigma: float) -> int:
+        """How many non-linear edges among nodes whose estimates are at hand (active in the
         solver, or anchors) are linearised so far from the current estimates that the
-        linearisation error exceeds ``tol_sigma`` of their standard deviation."""
+        linearisation error exceeds ``tol_sigma`` of their standard deviation: ranges
+        (their direction turned) and rotated positions (their heading moved)."""
         self._flush()
         nn = len(self._keys)
         active = self.solver.active_mask(nn)
-        cand = self._range_candidates(active | self._anchor_mask())
-        if len(cand) == 0:
-            return 0
+        known = active | self._anchor_mask()
         est = np.zeros((nn, self.d))
         act = np.flatnonzero(active)
         est[act] = self.solver.active_estimates(act)
-        rng = self._rng
-        xi, xj = self._positions(est, rng.i[cand]), self._positions(est, rng.j[cand])
-        return int(self._stale(cand, xi, xj, tol_sigma).sum())
+        stale = 0
+        cand = self._range_candidates(known)
+        if len(cand):
+            rng = self._rng
+            xi, xj = self._positions(est, rng.i[cand]), self._positions(est, rng.j[cand])
+            stale += int(self._stale(cand, xi, xj, tol_sigma).sum())
+        cand = self._rotated_candidates(known)
+        if len(cand):
+            psi = self._positions(est, self._rot.h[cand])[:, 0]
+            stale += int(self._rot_stale(cand, psi, tol_sigma).sum())
+        return stale
 
     def relinearize(self, tol_sigma: float | None = None) -> int:
-        """Re-linearise (eqs. 18-21) the ranges whose linearisation error exceeds
-        ``tol_sigma`` of their standard deviation (see :meth:`_stale`); returns how many
-        were stale among the active nodes.
+        """Re-linearise (eqs. 18-21) the non-linear edges whose linearisation error exceeds
+        ``tol_sigma`` of their standard deviation (see :meth:`stale_edges`); returns how
+        many were stale among the active nodes.
 
         The new linearisation is applied in the information form, by re-assembling
         ``L`` and ``b`` (eqs. 20, 21) and refactorising: removing an old linearisation
@@ -555,10 +728,26 @@ class GeneralizedElectricalNetwork:
         direction changed a lot, adding information is not.
         """
         tol = self.relinearize_sigma if tol_sigma is None else tol_sigma
-        stale = self.stale_ranges(tol)
+        stale = self.stale_edges(tol)
         if stale:
             self.rebuild(tol)
         return stale
+
+    def _rotated_candidates(self, mask_nodes: np.ndarray | None) -> np.ndarray:
+        rot = self._rot
+        n = rot.n
+        ok = rot.alive[:n] & rot.applied[:n]
+        if mask_nodes is not None:
+            ok &= mask_nodes[rot.h[:n]]
+        return np.flatnonzero(ok)
+
+    def _rot_stale(self, fids: np.ndarray, psi: np.ndarray, tol_sigma: float) -> np.ndarray:
+        """Rotated positions whose linearisation error at heading ``psi`` exceeds
+        ``tol_sigma`` of their horizontal standard deviation."""
+        rot = self._rot
+        miss = rotated_position_miss(rot.z[fids], rot.lin[fids], psi)
+        sigma = np.sqrt(0.5 * (rot.cov[fids, 0, 0] + rot.cov[fids, 1, 1]))
+        return miss > tol_sigma * sigma
 
     def _stale(self, fids: np.ndarray, xi: np.ndarray, xj: np.ndarray,
                tol_sigma: float) -> np.ndarray:
@@ -616,6 +805,22 @@ class GeneralizedElectricalNetwork:
             rows_i.append(i[both]); rows_j.append(j[both]); blocks.append(-blk[both])
             rows_i.append(j[both]); rows_j.append(i[both]); blocks.append(-blk[both])
 
+        def add_dense(nodes, lam, eta):
+            # m edges over k nodes each: Kirchhoff blocks lam (m, k d, k d) and b-part eta
+            # (m, k d) over all their nodes; anchors (at anchor_pos, zero elsewhere) are
+            # folded into b: b_a = eta_a - sum_c lam_ac x_c over anchors c (eq. 12)
+            k = nodes.shape[1]
+            lam = lam.reshape(len(nodes), k, d, k, d)
+            eta = eta.reshape(len(nodes), k, d) - np.einsum(
+                "makcl,mcl->mak", lam, anchor_pos[nodes])
+            for a in range(k):
+                free_a = ~is_anchor[nodes[:, a]]
+                np.add.at(bvec.reshape(-1, d), col[nodes[free_a, a]], eta[free_a, a])
+                for c in range(k):
+                    ok = free_a & ~is_anchor[nodes[:, c]]
+                    rows_i.append(nodes[ok, a]); rows_j.append(nodes[ok, c])
+                    blocks.append(lam[ok, a, :, c, :])
+
         pos = self._pos
         sel = np.flatnonzero(pos.alive[:pos.n] & pos.applied[:pos.n])
         if len(sel):
@@ -637,15 +842,28 @@ class GeneralizedElectricalNetwork:
                                     self.eps)
             blk, bi = range_blocks(h, y, 1.0 / rng.var[sel])
             add(rng.i[sel], rng.j[sel], blk, bi)
-        for m in self._mrg:
-            if not (m.alive and m.applied):
-                continue
-            k = len(m.nodes)
-            blk = m.lam.reshape(k, d, k, d).transpose(0, 2, 1, 3)
-            ii, jj = np.meshgrid(m.nodes, m.nodes, indexing="ij")
-            rows_i.append(ii.ravel()); rows_j.append(jj.ravel())
-            blocks.append(blk.reshape(-1, d, d))
-            np.add.at(bvec.reshape(-1, d), col[m.nodes], m.eta.reshape(k, d))
+        rot = self._rot
+        sel = self._rotated_candidates(None)
+        if len(sel):
+            if positions is not None:
+                psi = self._positions(positions, rot.h[sel])[:, 0]
+                ok = np.isfinite(psi)
+                turned = np.zeros(len(sel), bool)
+                turned[ok] = self._rot_stale(sel[ok], psi[ok],
+                                             0.0 if tol_sigma is None else tol_sigma)
+                rot.lin[sel[turned]] = psi[turned]
+                self.relinearised += int(turned.sum())
+            g, y = rotated_position_linearised(rot.z[sel], rot.lin[sel])
+            J = np.zeros((len(sel), d, 3 * d))
+            J[:, :, :d] = np.eye(d)
+            J[:, :, d:2 * d] = -np.eye(d)
+            J[:, :, 2 * d] = -g
+            WJ = rot.info[sel] @ J
+            add_dense(np.stack([rot.i[sel], rot.j[sel], rot.h[sel]], axis=1),
+                      np.einsum("mrk,mrl->mkl", J, WJ), np.einsum("mrk,mr->mk", WJ, y))
+        for e in (*self._mrg, *self._lin):
+            if e.alive and e.applied:
+                add_dense(e.nodes[None, :], e.lam[None], e.eta[None])
         if rows_i:
             ri = col[np.concatenate(rows_i)]
             rj = col[np.concatenate(rows_j)]
@@ -676,7 +894,7 @@ class GeneralizedElectricalNetwork:
     def cost(self, positions: np.ndarray) -> float:
         """Weighted squared error of every live applied edge at ``positions`` (per node id):
         the non-linear least-squares objective whose minimiser the batch solution is
-        (marginal edges up to a constant)."""
+        (marginal and linear edges up to a constant)."""
         x = positions.copy()
         for nid, p in self._anchor.items():
             x[nid] = p
@@ -692,7 +910,12 @@ class GeneralizedElectricalNetwork:
             diff = x[rng.i[sel]] - x[rng.j[sel]] + rng.off[sel]
             e = rng.r[sel] - np.linalg.norm(diff, axis=1)
             total += float(np.sum(e * e / rng.var[sel]))
-        for m in self._mrg:
+        rot = self._rot
+        sel = self._rotated_candidates(None)
+        if len(sel):
+            e = rotate_z(rot.z[sel], x[rot.h[sel], 0]) - (x[rot.i[sel]] - x[rot.j[sel]])
+            total += float(np.einsum("mk,mkl,ml->", e, rot.info[sel], e))
+        for m in (*self._mrg, *self._lin):
             if m.alive and m.applied:
                 v = x[m.nodes].ravel()
                 total += float(v @ m.lam @ v - 2.0 * m.eta @ v)
@@ -700,9 +923,9 @@ class GeneralizedElectricalNetwork:
 
     def optimize(self, tol: float = 1e-9, max_iter: int = 100) -> int:
         """Batch solution of the non-linear problem: Gauss-Newton on eqs. 20-21 with
-        Levenberg-Marquardt damping, every range re-linearised at each iterate, until
-        the estimates move less than ``tol`` [m]. Returns the iterations done; the
-        network's estimates are the optimum afterwards."""
+        Levenberg-Marquardt damping, every range and rotated position re-linearised at
+        each iterate, until the estimates move less than ``tol`` [m]. Returns the
+        iterations done; the network's estimates are the optimum afterwards."""
         n = len(self._keys)
         x = self.solver.full_estimate(n)
         cost = self.cost(np.nan_to_num(x))
@@ -817,6 +1040,8 @@ class GeneralizedElectricalNetwork:
         """Live edges by kind (applied or waiting)."""
         return {"relative_position": int(self._pos.alive[:self._pos.n].sum()),
                 "range": int(self._rng.alive[:self._rng.n].sum()),
+                "rotated_position": int(self._rot.alive[:self._rot.n].sum()),
+                "linear": sum(e.alive for e in self._lin),
                 "marginal": sum(m.alive for m in self._mrg)}
 
     def key_of(self, nid: int) -> Hashable:
