@@ -11,63 +11,11 @@ import math
 import numpy as np
 import pytest
 
-from firenav_framework import Odometry, Range
-from firenav_framework.building import Anchor, Building, Door, Floor
+from firenav_framework.building import Anchor, Door
 from firenav_framework.testing import make_component
 from firenav_plugins.constraints.orca import OrcaConstraint
 from firenav_plugins.estimators.dead_reckoning import DeadReckoning
-
-YAW = 1.1          # the INS frame's arbitrary yaw [rad]
-COV = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
-
-
-def building(walls, doors=(), anchors=()) -> Building:
-    floor = Floor(index=0, z=0.0, height=3.0, walls=np.array(walls, float), doors=list(doors))
-    return Building("test", [floor], anchors=list(anchors))
-
-
-class Walker:
-    """Feeds building-frame step vectors, as the INS (turned by YAW) would report them."""
-
-    def __init__(self, b: Building, start, heading, orca: dict | None = None,
-                 agent: str = "ff1", chain=None):
-        params = dict(alignment="pose", start_position=(*start, 0.0), start_heading=heading,
-                      imu_yaw_offset=0.0)
-        self.dr, self.rec, self.stats = chain or make_component(DeadReckoning, params,
-                                                                building=b)
-        if chain is None:
-            if orca is not None:
-                self.orca, _, self.orca_stats = make_component(OrcaConstraint, orca,
-                                                               building=b)
-                self.orca.start()
-                self.dr.constraints.append(self.orca)
-            self.dr.start()
-        self.agent, self.t = agent, 0.0
-        self.heading = heading - YAW     # INS-frame heading
-        self.pos = np.zeros(3)
-
-    def step(self, dx: float, dy: float, turn: float = 0.0, dt: float = 1.0) -> np.ndarray:
-        c, s = math.cos(-YAW), math.sin(-YAW)
-        d = np.array([c * dx - s * dy, s * dx + c * dy, 0.0])
-        self.pos = self.pos + d
-        self.heading += turn
-        self.t += dt
-        self.dr.handle("odo", Odometry(t=self.t, agent=self.agent, t_start=self.t - dt,
-                                       delta=d, dheading=turn, cov=COV, position=self.pos.copy(),
-                                       heading=self.heading))
-        return self.rec.on("pose")[-1].position
-
-    def range(self, anchor: str, r: float) -> None:
-        self.orca.handle("uwb", Range(t=self.t, agent=self.agent, a=self.agent, b=anchor,
-                                      range_m=r, sigma_m=0.1))
-
-    def counts(self) -> dict:
-        """Rule events counted by the estimator and the constraint."""
-        out = dict(self.stats.counts.get("under_test", {}))
-        if hasattr(self, "orca_stats"):
-            out.update(self.orca_stats.counts.get("under_test", {}))
-        return out
-
+from tests.orca.walker import YAW, Walker, building
 
 WALL = [[[-50.0, 0.0], [50.0, 0.0]]]
 
@@ -210,3 +158,35 @@ def test_rotation_from_the_heading_ignores_a_swaying_stride(source, stored):
     w.step(1.3, 0.0)
     w.step(1.3 * math.cos(a), -1.3 * math.sin(a))
     assert ("orca_rotation" in w.counts()) == stored
+
+
+@pytest.mark.parametrize("door_pass", [True, False])
+def test_a_step_through_a_doorway_that_clips_a_jamb_is_centred_in_the_door(door_pass):
+    """A step at 63 deg to the wall through door A (x 0.55..1.45), from (0.9, 0.8) by
+    (0.6, -1.2): its line crosses the gap at x = 1.3, 2/3 of the way, and the 0.25 m
+    disc clips the east jamb (0.13 m from the line). The path is moved 0.3 m west so
+    that it crosses at the door centre, and the rest of the step carries on through
+    the door (no jump). Without the rule, 63 deg is neither heading error nor missed
+    door: ORCA's velocity slides the agent past the jamb and the path keeps its offset."""
+    b = building(DOORS_WALL, DOORS, [ANCHOR])
+    w = Walker(b, (0.9, 0.8), -1.107, orca={"door_pass": door_pass})
+    end = w.step(0.6, -1.2)
+    after = w.step(0.6, -1.2)
+    if door_pass:
+        assert w.counts() == {"orca_door_pass": 1}
+        np.testing.assert_allclose(end[:2], [1.2, -0.4], atol=1e-9)
+        np.testing.assert_allclose(after[:2], [1.8, -1.6], atol=1e-9)    # the update moved it
+    else:
+        assert w.counts() == {"orca_blocked": 1}
+        assert end[1] < 0.0
+        np.testing.assert_allclose(after[:2], [2.1, -1.6], atol=1e-9)     # no update stored
+    track = np.array([p.position[:2] for p in w.rec.on("pose")])
+    assert not b.floors[0].crosses_wall(track[:-1], track[1:]).any()
+
+
+def test_a_step_through_the_middle_of_a_doorway_is_free():
+    b = building(DOORS_WALL, DOORS, [ANCHOR])
+    w = Walker(b, (1.0, 1.0), -math.pi / 2, orca={})
+    end = w.step(0.0, -1.3)
+    assert w.counts() == {}
+    np.testing.assert_allclose(end[:2], [1.0, -0.3], atol=1e-12)

@@ -63,6 +63,7 @@ from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, Ste
 
 from .doors import DoorTable, RangeFix
 from .step_solver import FREE, WallGrid
+from .turns import TurnHistory
 
 __all__ = ["OrcaConstraint", "classify_rotation", "approach_angle", "line_crossing"]
 
@@ -120,8 +121,7 @@ class _Agent:
     end: np.ndarray | None = None           # ... and end (3,) [m]
     dt: float = 1.0                         # ... its duration [s]
     t: float | None = None                  # ... and time [s]
-    turns: tuple[float, float] = (0.0, 0.0)   # turn of the previous two steps [rad]
-    course: float | None = None             # INS-frame direction of the last real step [rad]
+    turns: TurnHistory = field(default_factory=TurnHistory)
 
 
 class OrcaConstraint(Constraint):
@@ -165,13 +165,17 @@ class OrcaConstraint(Constraint):
             "step", description="velocity whose ORCA rotation is stored: 'step' = the step "
             "from the agent to the INS position (eq. 7, Figure 4); 'heading' = the same speed "
             "along the INS heading, which ignores the sway of single strides")
+        door_pass: bool = param(True, description="a step whose line passes through a "
+                                "doorway while the disc clips a jamb is centred in the "
+                                "door (a translation) instead of being held or rotated")
         min_step: float = param(0.2, unit="m", ge=0, description="a shorter move (a shuffle "
                                 "while standing) is only held at the wall: its direction "
                                 "says nothing about heading or doors")
         range_max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this "
                                      "are not used to choose a door")
-        tag_height: float = param(1.0, unit="m", description="height of the UWB tag above the "
-                                  "floor, for expected ranges to anchors")
+        tag_height: float = param(1.4, unit="m", description="height of the UWB tag above the "
+                                  "floor (worn on the chest or shoulder), for expected "
+                                  "ranges to anchors")
         avoid_team: bool = param(False, description="team members are ORCA agents that avoid "
                                  "each other (reciprocal lines, §2.2)")
         team_time_horizon: float = param(2.0, unit="s", gt=0, description="time horizon for "
@@ -236,6 +240,13 @@ class OrcaConstraint(Constraint):
             return self._record(me, step, StepCorrection(
                 position=_with_z(pos + step.dt * v_orca, step), event="orca_team"))
         move = target - pos
+        if p.door_pass:
+            passed = self._door_table(floor_idx).passed(pos, target)
+            if passed is not None:
+                # the step goes through a doorway and the disc only clips a jamb
+                k, f = passed
+                return self._record(me, step, self._through_door(
+                    step, floor_idx, grid, pos, move, f, k, jump=False, event="orca_door_pass"))
         kind = classify_rotation(approach_angle(move, grid.segs[wall]), p.min_rotation,
                                  p.max_rotation, p.door_angle, p.door_tolerance)
         if math.hypot(move[0], move[1]) < p.min_step:
@@ -278,9 +289,7 @@ class OrcaConstraint(Constraint):
               pos: np.ndarray, move: np.ndarray, wall: int) -> StepCorrection | None:
         """Missed-door rule: translate the path so that it crosses the chosen door."""
         p = self.params
-        doors = self._doors.get(floor_idx)
-        if doors is None:
-            doors = self._doors[floor_idx] = DoorTable(self._building.floors[floor_idx])
+        doors = self._door_table(floor_idx)
         seg = grid.segs[wall]
         f = line_crossing(pos, move, seg)
         crossing = pos + f * move
@@ -295,34 +304,39 @@ class OrcaConstraint(Constraint):
         if worst > p.door_range_gate:
             self.ctx.count("orca_door_range_misfit")
             return None
-        door = doors.centers[k]
+        return self._through_door(step, floor_idx, grid, pos, move, f, k, jump=True,
+                                  event="orca_door")
+
+    def _through_door(self, step: OdometryStep, floor_idx: int, grid: WallGrid,
+                      pos: np.ndarray, move: np.ndarray, f: float, k: int, jump: bool,
+                      event: str) -> StepCorrection:
+        """Translate the path so that the step crosses door ``k`` at its centre instead
+        of at fraction ``f`` of the step."""
+        door = self._door_table(floor_idx).centers[k]
+        crossing = pos + f * move
         rest = (1.0 - f) * move
         # Cross the door along the step, unless that is blocked or the straight line from
         # the agent to there would pass the jamb: then stop in the doorway (the rest of
         # the step comes with the next one, the update moving it as well), so that the
         # track itself goes through the door.
         end = door + rest
-        if grid.blocked(door, end, p.radius) or \
+        if grid.blocked(door, end, self.params.radius) or \
                 self._building.floors[floor_idx].crosses_wall(pos[None], end[None])[0]:
             end = door.copy()
         return StepCorrection(position=_with_z(end, step),
-                              update=Rigid2D.translation(door - crossing),
-                              jump=True, event="orca_door")
+                              update=Rigid2D.translation(door - crossing), jump=jump,
+                              event=event)
+
+    def _door_table(self, floor_idx: int) -> DoorTable:
+        doors = self._doors.get(floor_idx)
+        if doors is None:
+            doors = self._doors[floor_idx] = DoorTable(self._building.floors[floor_idx])
+        return doors
 
     def _turning(self, me: _Agent, step: OdometryStep) -> bool:
-        """Did the walker turn more than ``turn_guard`` over this and the previous step?
-
-        A turn shows in the INS heading change and in the change of direction between
-        steps (a stride that rounds a corner lags the foot's heading)."""
-        d = step.odometry.delta
-        turn = abs(step.odometry.dheading)
-        if math.hypot(d[0], d[1]) >= self.params.min_step:
-            course = math.atan2(d[1], d[0])
-            if me.course is not None:
-                turn = max(turn, abs(math.remainder(course - me.course, 2 * math.pi)))
-            me.course = course
-        me.turns = (me.turns[1], turn)
-        return self.params.turn_guard is not None and sum(me.turns) > self.params.turn_guard
+        """Did the walker turn more than ``turn_guard`` over this and the previous step?"""
+        turn = me.turns.update(step.odometry.delta, step.odometry.dheading, self.params.min_step)
+        return self.params.turn_guard is not None and turn > self.params.turn_guard
 
     # -- team -------------------------------------------------------------------------
     def _team(self, step: OdometryStep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
