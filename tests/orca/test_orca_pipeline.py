@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from firenav_framework.evaluation.runs import evaluate
 from firenav_framework.pipeline import load_pipeline
 from firenav_framework.runner import run_pipeline
 
@@ -41,3 +42,21 @@ def test_covariance_grows_with_the_walk(run):
     far = np.argmax(np.hypot(*(track.position[:, :2] - track.position[0, :2]).T))
     assert trace[far] > 4 * trace[0]
     assert np.all(np.diff(track.cov[:, 3, 3]) > 0)
+
+
+def test_every_rule_of_the_bundled_pipeline_acts(run):
+    counts = run.stats.counts
+    assert counts["anchor_range"]["ranges_used"] > 20
+    for event in ("anchor_range", "wall_follow"):
+        assert counts["mm"][event] > 0
+
+
+def test_beats_ins_alone_at_the_check_points_of_test_ii(repo):
+    """Along one corridor wall and back along the other (simulator ground truth, one
+    seed; benchmarks/bench_orca_corridor.py gives the 10-seed figures): the corrected
+    track is at least twice as close to the check points as the same INS alone."""
+    kw = dict(scenario="orca_test2", seeds=[3], truth_mode="checkpoints")
+    ours = evaluate(repo / "pipelines" / "orca-map-matching.yaml", **kw).overall
+    ins = evaluate(repo / "pipelines" / "ins-baseline.yaml", **kw).overall
+    assert ours.rmse_m < 0.5 * ins.rmse_m
+    assert ours.max_m < ins.max_m

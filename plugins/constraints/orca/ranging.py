@@ -1,0 +1,154 @@
+"""UWB ranges to fixed anchors as a position correction of the dead-reckoned path.
+
+The ORCA paper (§2.2, §3.1) leaves a UWB anchor at the entrance and uses its range only
+to choose a door; its outlook (§5) adds that "each time a firefighter passes near the
+anchor, the position is corrected". The range says how far the firefighter is from the
+anchor, which no wall constrains along a corridor: there the INS's stride-length error
+piles up unseen (strides measured a few per cent short put the path metres behind).
+
+This rule is a small Kalman filter on the error of the corrected position (2-D, ENU):
+its covariance grows with every step (``step_sigma`` of the step length, each axis),
+every range taken between two steps is an observation of it, at the position
+interpolated along the step to the range's time (tag ``tag_height`` above the floor),
+and the estimated error is fed back at once as a translation in the update matrix
+(eq. 8), so it moves this and every later step. Ranges through a wall of the floor plan
+(from the estimated position) or flagged NLOS by the sensor are not used: their delay
+only lengthens them; ranges farther off than ``gate`` sigmas are counted and dropped;
+within ``min_distance`` of the anchor (horizontally) a range says little about
+direction and is skipped.
+"""
+from __future__ import annotations
+
+import bisect
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from firenav_framework import Constraint, Params, PerAgent, Range, param
+from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, StepCorrection
+
+__all__ = ["AnchorRangeConstraint"]
+
+
+@dataclass
+class _Agent:
+    pending: deque = field(default_factory=deque)  # (t, anchor xyz (3,), range, sigma)
+    cov: np.ndarray | None = None                  # (2, 2) position error covariance [m^2]
+    t: float | None = None                         # time of the last step [s]
+
+
+class AnchorRangeConstraint(Constraint):
+    """UWB ranges to fixed anchors correct the dead-reckoned position (Kalman filter, translation)."""
+
+    name = "anchor_range"
+    inputs = (Range,)
+    requires = frozenset({"odometry_correction"})
+    needs_building = True
+
+    class Params(Params):
+        init_sigma: float = param(0.3, unit="m", gt=0, description="position uncertainty at "
+                                  "the first step (1 sigma, each axis)")
+        step_sigma: float = param(0.05, ge=0, description="position noise added per step and "
+                                  "axis, as a fraction of the step length")
+        tag_height: float = param(1.4, unit="m", description="height of the UWB tag above the "
+                                  "floor (worn on the chest or shoulder)")
+        model_sigma: float = param(0.15, unit="m", ge=0, description="range model error "
+                                   "added (in quadrature) to each range's own sigma: tag "
+                                   "height, body and antenna delays, multipath in line of "
+                                   "sight")
+        gate: float = param(3.0, gt=0, description="ranges farther than this many sigmas from "
+                            "the prediction are dropped")
+        min_distance: float = param(1.0, unit="m", ge=0, description="horizontal distance to "
+                                    "the anchor below which a range is not used")
+        use_nlos: bool = param(False, description="use ranges the sensor flags NLOS (with "
+                               "their sigma)")
+        through_walls: bool = param(False, description="use ranges whose line of sight from "
+                                    "the estimated position crosses a wall of the plan")
+        max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this when "
+                               "their step comes are dropped")
+
+    def __init__(self, params: Params, ctx):
+        super().__init__(params, ctx)
+        self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
+        self._anchors: dict[str, np.ndarray] = {}
+
+    def start(self) -> None:
+        building = self.ctx.building
+        self._building = building
+        self._anchors = {a.id: np.asarray(a.position, float) for a in building.anchors}
+        levels = [f.z for f in building.floors]
+        self._level_mids = [(a + b) / 2 for a, b in zip(levels, levels[1:])]
+
+    def reset(self, agent: str) -> None:
+        self.agents.reset(agent)
+
+    def handle(self, stream: str, msg: Range) -> None:
+        if not isinstance(msg, Range):
+            return
+        anchor = msg.b if msg.b in self._anchors else msg.a if msg.a in self._anchors else None
+        if anchor is None:
+            self.ctx.count("ranges_unknown_anchor")
+            return
+        if not (math.isfinite(msg.range_m) and msg.range_m >= 0 and msg.sigma_m > 0):
+            self.ctx.count("ranges_invalid")
+            return
+        if msg.nlos and not self.params.use_nlos:
+            self.ctx.count("ranges_nlos")
+            return
+        me = self.agents[msg.agent]
+        while me.pending and msg.t - me.pending[0][0] > self.params.max_age:
+            me.pending.popleft()            # no step came to use it (standing still)
+            self.ctx.count("ranges_stale")
+        me.pending.append((msg.t, self._anchors[anchor], msg.range_m, msg.sigma_m))
+
+    def correct(self, step: OdometryStep) -> StepCorrection | None:
+        p = self.params
+        me = self.agents[step.agent]
+        if me.cov is None:
+            me.cov = np.eye(2) * p.init_sigma ** 2
+        move = step.proposed[:2] - step.prev[:2]
+        me.cov = me.cov + np.eye(2) * (p.step_sigma ** 2 * float(move @ move))
+        t0 = step.t - step.dt if me.t is None else me.t
+        me.t = step.t
+        due = []
+        while me.pending and me.pending[0][0] <= step.t:
+            due.append(me.pending.popleft())
+        if not due:
+            return None
+        floor_idx = bisect.bisect_right(self._level_mids, step.prev[2])
+        floor = self._building.floors[floor_idx]
+        tag_z = floor.z + p.tag_height
+        shift = np.zeros(2)
+        for t_r, anchor, r, sigma in due:
+            if step.t - t_r > p.max_age:
+                self.ctx.count("ranges_stale")
+                continue
+            f = 1.0 if step.t <= t0 else min(max((t_r - t0) / (step.t - t0), 0.0), 1.0)
+            pos = step.prev[:2] + f * move + shift
+            d = pos - anchor[:2]
+            horiz = math.hypot(d[0], d[1])
+            if horiz < p.min_distance:
+                self.ctx.count("ranges_too_close")
+                continue
+            if not p.through_walls and floor.crosses_wall(pos[None], anchor[None, :2])[0]:
+                self.ctx.count("ranges_through_walls")
+                continue
+            predicted = math.sqrt(horiz * horiz + (tag_z - anchor[2]) ** 2)
+            h = d / predicted
+            sigma = math.hypot(sigma, p.model_sigma)
+            s = float(h @ me.cov @ h) + sigma * sigma
+            innovation = r - predicted
+            if abs(innovation) > p.gate * math.sqrt(s):
+                self.ctx.count("ranges_gated")
+                continue
+            k = me.cov @ h / s
+            shift = shift + k * innovation
+            me.cov = me.cov - np.outer(k, h @ me.cov)
+            self.ctx.count("ranges_used")
+        if not shift.any():
+            return None
+        return StepCorrection(position=np.array([*(step.proposed[:2] + shift), step.proposed[2]]),
+                              update=Rigid2D.translation(shift), event="anchor_range")
+

@@ -1,0 +1,103 @@
+"""anchor_range: UWB ranges to a fixed anchor correct the dead-reckoned position."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firenav_framework import Range
+from firenav_framework.building import Anchor
+from firenav_framework.testing import check_plugin
+from firenav_plugins.constraints.orca import AnchorRangeConstraint
+from tests.orca.walker import Walker, building
+
+ANCHOR = Anchor("uwb_start", "uwb", np.array([0.0, 0.0, 1.0]), 0)
+TAG = 1.4        # tag height above the floor [m] (the constraint's default)
+FAR = [[[-50.0, -20.0], [50.0, -20.0]]]      # a floor whose only wall is out of the way
+
+
+def true_range(x: float, y: float = 0.0) -> float:
+    return math.sqrt(x * x + y * y + (TAG - ANCHOR.position[2]) ** 2)
+
+
+def walker(walls=FAR, start=(2.0, 0.0), **params) -> Walker:
+    return Walker(building(walls, anchors=[ANCHOR]), start, 0.0,
+                  extra=[(AnchorRangeConstraint, params)])
+
+
+def test_ranges_take_out_a_short_stride_along_the_line_to_the_anchor():
+    """The INS measures each 1.3 m stride 5 % short while walking straight away from the
+    anchor; a true range after every step keeps the along-track error near the Kalman
+    filter's steady-state lag (about 0.13 m) instead of 5 % of the distance, and never
+    moves the track sideways (the range says nothing across the line of sight)."""
+    w = walker()
+    x_true = 2.0
+    for _ in range(30):
+        end = w.step(0.95 * 1.3, 0.0)
+        x_true += 1.3
+        w.range("uwb_start", true_range(x_true), sigma=0.05)
+    end = w.step(0.95 * 1.3, 0.0)
+    x_true += 1.3
+    ins_error = 31 * 0.05 * 1.3
+    assert abs(end[0] - x_true) < 0.25 < 0.2 * ins_error
+    assert end[1] == pytest.approx(0.0, abs=1e-12)
+    assert w.counts()["ranges_used"] == 30
+
+
+def test_a_range_is_taken_where_the_agent_was_at_its_time():
+    """A range halfway through a 2 m step is compared with the position interpolated
+    there: a true range there leaves the step alone."""
+    w = walker()
+    w.step(2.0, 0.0)                                  # at x = 4 (t = 1)
+    w.range("uwb_start", true_range(5.0), dt=0.5)     # at x = 5 (t = 1.5)
+    end = w.step(2.0, 0.0)                            # to x = 6 (t = 2)
+    assert w.counts()["ranges_used"] == 1
+    np.testing.assert_allclose(end[:2], [6.0, 0.0], atol=1e-9)
+
+
+@pytest.mark.parametrize("case, count", [
+    ("nlos", "ranges_nlos"), ("unknown", "ranges_unknown_anchor"),
+    ("nan", "ranges_invalid"), ("negative", "ranges_invalid"), ("outlier", "ranges_gated"),
+    ("wall", "ranges_through_walls"), ("stale", "ranges_stale"),
+    ("close", "ranges_too_close"),
+])
+def test_unusable_ranges_are_counted_and_leave_the_track_alone(case, count):
+    walls = FAR + [[[3.0, -5.0], [3.0, 5.0]]] if case == "wall" else FAR
+    start = (0.3, 0.0) if case == "close" else (5.0, 0.0)
+    w = walker(walls, start=start)
+    w.step(0.5, 0.0)
+    x = start[0] + 0.5
+    r = {"nan": float("nan"), "negative": -1.0, "outlier": true_range(x) + 5.0}.get(
+        case, true_range(x) + 0.4)
+    w.range("ghost" if case == "unknown" else "uwb_start", r, nlos=case == "nlos")
+    end = w.step(0.5, 0.0, dt=5.0 if case == "stale" else 1.0)
+    counts = w.counts()
+    assert counts.get(count) == 1 and "ranges_used" not in counts and "anchor_range" not in counts
+    np.testing.assert_allclose(end[:2], [x + 0.5, 0.0], atol=1e-12)
+
+
+def test_nlos_ranges_are_used_when_asked():
+    w = walker(use_nlos=True)
+    w.step(0.5, 0.0)
+    w.range("uwb_start", true_range(2.5) + 0.4, nlos=True)
+    end = w.step(0.5, 0.0)
+    assert w.counts()["ranges_used"] == 1 and end[0] > 3.0
+
+
+def test_ranges_waiting_for_a_step_do_not_pile_up():
+    """Standing still (no steps) for a minute at 10 Hz: only the last max_age seconds of
+    ranges are kept."""
+    w = walker()
+    w.step(0.5, 0.0)
+    for k in range(600):
+        w.range("uwb_start", true_range(2.5), dt=0.1 * k)
+    me = w.constraints[0][0].agents["ff1"]
+    assert len(me.pending) <= 21
+    assert w.counts()["ranges_stale"] == 600 - len(me.pending)
+
+
+def test_it_is_a_conforming_plugin():
+    check_plugin(AnchorRangeConstraint, {}, building=building(FAR, anchors=[ANCHOR]),
+                 sample_input=[("uwb", Range(t=1.0, agent="ff1", a="ff1/uwb", b="uwb_start",
+                                             range_m=3.0, sigma_m=0.1))])
