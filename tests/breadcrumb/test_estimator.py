@@ -62,7 +62,8 @@ def walk(laps: int = 3, drift_deg_per_lap: float = 10.0, seed: int = 0, kick: bo
     return msgs, truth[1:], t[1:]
 
 
-PARAMS = {"base_position": BASE.tolist(), "odometry_noise_per_m": 0.3, "heading_feedback": 1.0}
+PARAMS = {"base_position": BASE.tolist(), "odometry_noise_per_m": 0.05}
+PAPER = {**PARAMS, "heading_states": False, "odometry_noise_per_m": 0.3}  # position-only GEN
 
 
 def errors(rec, truth):
@@ -95,18 +96,41 @@ def test_encounters_bound_the_drift_of_pdr():
 
 def test_marginalisation_window_is_exact_for_linear_edges():
     """§IV-E: deleting old states (eq. 17) changes nothing for linear edges: a window of 3
-    states gives the same poses as keeping every state (the paper's GEN: no heading
-    feedback, which looks at the window)."""
+    states gives the same poses as keeping every state (the paper's position-only GEN,
+    whose edges here are all linear)."""
     msgs, truth, _ = walk(laps=2)
-    paper = {**PARAMS, "heading_feedback": 0.0}
-    short = run_component(BreadcrumbGen, {**paper, "window": 3}, msgs)
-    full = run_component(BreadcrumbGen, {**paper, "window": 100000}, msgs)
+    short = run_component(BreadcrumbGen, {**PAPER, "window": 3}, msgs)
+    full = run_component(BreadcrumbGen, {**PAPER, "window": 100000}, msgs)
     a = np.array([p.position for p in short.on("pose")])
     b = np.array([p.position for p in full.on("pose")])
     np.testing.assert_allclose(a, b, atol=1e-8)
     ca = np.array([p.cov for p in short.on("pose")])
     cb = np.array([p.cov for p in full.on("pose")])
     np.testing.assert_allclose(ca, cb, atol=1e-8)
+
+
+def test_heading_states_learn_the_gyro_drift():
+    """A heading drifting at a constant rate (a residual gyro bias) is a rotation the
+    position-only GEN cannot express: with heading states the loop closures at the base
+    and the breadcrumbs estimate the drift rate, and the track stays far closer."""
+    drift = 10.0                                       # [deg per lap of 100 s]
+    msgs, truth, t = walk(laps=4, drift_deg_per_lap=drift)
+    ours = run_component(BreadcrumbGen, PARAMS, msgs)
+    paper = run_component(BreadcrumbGen, PAPER, msgs)
+    e_ours, e_paper = errors(ours, truth), errors(paper, truth)
+    later = t > 110.0                                  # after the first loop closure
+    assert e_ours[later].max() < 0.5 * e_paper[later].max()
+    assert e_ours[later].mean() < 1.0
+    # the published heading: the odometry's (0 here) plus the estimated correction, which
+    # must undo the simulated drift psi(t) = drift * (t - 10) / 100 s
+    poses = ours.on("pose")
+    psi_true = -np.radians(drift) * (t - 10.0) / 100.0
+    heading = np.array([p.heading for p in poses])
+    err = np.degrees(np.abs(np.angle(np.exp(1j * (heading - psi_true)))))
+    assert np.all(err[later] < 3.0)
+    sigma = np.degrees(np.sqrt([p.cov[3, 3] for p in poses]))
+    assert np.all(err[later] < 3.0 * sigma[later])      # its variance is not optimistic
+    assert sigma[later].max() < 0.5 * sigma[~later].max()   # and shrinks at the closures
 
 
 def test_graph_keeps_only_the_window_of_states():
@@ -116,7 +140,8 @@ def test_graph_keeps_only_the_window_of_states():
     for s, m in msgs:
         comp.handle(s, m)
     states = [k for k in comp.gen.nodes if str(k).startswith("ff1@")]
-    assert len(states) == 5
+    assert len(states) == 10                     # 5 states, each with its heading state
+    assert sum(str(k).endswith("/heading") for k in states) == 5
 
 
 def test_impossible_speed_is_dropped():

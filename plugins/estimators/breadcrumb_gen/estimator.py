@@ -7,23 +7,33 @@ Nodes of the extended relative measurement graph (§IV-E):
   dropping firefighter's state (its initial position comes from that firefighter's
   odometry, §V-A); a kicked breadcrumb (a ``moved`` drop from the sensor, §V-C) becomes
   a new node ``<id>#<n>`` tied to the old one by ``kick_sigma``;
-* firefighter states ``<agent>@<k>`` - one per odometry step. The last ``window`` states
-  of each firefighter stay in the graph; older ones are marginalised (DeleteNode, eq. 17).
+* firefighter states ``<agent>@<k>`` - one per odometry step, each with a heading state
+  ``<agent>@<k>/heading`` (below). The last ``window`` states of each firefighter stay in
+  the graph; older ones are marginalised (DeleteNode, eq. 17).
 
-Edges: odometry steps (relative position, linear), RSSI ranges (eqs. 18-21, with the
-antennas' heights as a constant offset), encounters (the two nodes at the same place,
-linear), drops and kicks (linear). Outliers (§IV-F): a step faster than ``max_speed`` is
-physically impossible and replaced by the bare speed limit; a range whose innovation
-exceeds ``range_gate`` sigmas is dropped, one beyond ``range_weaken`` sigmas weakened
-(its variance scaled up to sit at ``range_weaken`` sigmas). A range shorter than
-``near_range_m`` - or between nodes whose estimated distance is below their relative
-uncertainty, where its direction is meaningless - enters as a zero relative position
-with the range's spread ("the nodes are within r of each other").
+Edges: odometry steps, RSSI ranges (eqs. 18-21, with the antennas' heights as a constant
+offset), encounters (the two nodes at the same place, linear), drops and kicks (linear).
+Outliers (§IV-F): a step faster than ``max_speed`` is physically impossible and replaced
+by the bare speed limit; a range whose innovation exceeds ``range_gate`` sigmas is
+dropped, one beyond ``range_weaken`` sigmas weakened (its variance scaled up to sit at
+``range_weaken`` sigmas). A range shorter than ``near_range_m`` - or between nodes whose
+estimated distance is below their relative uncertainty, where its direction is
+meaningless - enters as a zero relative position with the range's spread ("the nodes
+are within r of each other").
 
-Beyond the paper (``heading_feedback``, 0 turns it off): an INS errs mostly by a drifting
-heading, which the GEN's independent step edges cannot express; after a position fix the
-rotation between the odometry fed over the window and the graph's estimate of those
-states turns the following odometry.
+Beyond the paper (``heading_states``; false gives the paper's GEN): a foot INS errs
+mostly by a drifting heading (residual gyro bias, warm-up drift, gyro scale factor on
+every turn), which independent step edges cannot express: a heading error bends whole
+stretches of track, and the paper's position-only states would have to explain that
+with many unlikely steps. So each state carries a heading correction
+``h_k = (psi_k [rad], omega_k [rad/s], kappa_k [-])``: the true heading is the INS
+heading plus ``psi``; ``psi`` drifts at ``omega`` (the residual gyro bias) and by
+``kappa`` times every turn the INS measured (its scale-factor error). The motion model
+``psi_k = psi_k-1 + omega dt + kappa dtheta + w`` is a linear edge (process noise: the
+INS's own heading variance per step, and random walks of ``omega`` and ``kappa``); a
+step is a relative position turned by ``psi_k`` (linearised and re-linearised like a
+range). A loop closure at the base station or a breadcrumb then corrects the heading,
+its drift rate and the breadcrumbs dropped on the drifting track, as one BLUE.
 
 The odometry must be in the building frame (e.g. ``dead_reckoning`` output, which places
 the INS track with the known start pose), or be rotated into it by ``odometry_heading``
@@ -57,16 +67,14 @@ class _State:
     key: str
     t: float
     speed: float          # horizontal speed of the step that ended here [m/s]
-    fed: np.ndarray       # sum of the odometry steps fed to the graph up to here [m]
+    heading: str | None   # its heading-state node (None without heading states)
 
 
 @dataclass
 class _Agent:
     states: deque = field(default_factory=deque)        # recent _State, oldest first
     count: int = 0
-    heading_var: float = 0.0
-    psi: float = 0.0                                     # heading feedback [rad]
-    fixed: bool = False                                  # a radio edge since the last fit
+    heading_var: float = 0.0        # summed INS heading variance (without heading states)
     pending: list = field(default_factory=list)          # radio/drop events waiting for a state
     last_range: dict = field(default_factory=dict)       # node -> t of the last range used
     warned: set = field(default_factory=set)
@@ -95,8 +103,8 @@ class BreadcrumbGen(Estimator):
                                                    "the building frame (default 0: odometry "
                                                    "already in the building frame)")
         odometry_noise_per_m: float = param(0.3, ge=0, description="extra horizontal std per "
-                                            "axis per metre of step, for the INS heading "
-                                            "drift the per-step covariance leaves out")
+                                            "axis per metre of step, for INS errors the "
+                                            "per-step covariance leaves out")
         max_speed: float = param(5.0, unit="m/s", gt=0, description="a step faster than this "
                                  "is impossible and dropped (§IV-F)")
         drop_sigma: float = param(0.3, unit="m", gt=0, description="a dropped breadcrumb lies "
@@ -132,11 +140,20 @@ class BreadcrumbGen(Estimator):
                                          "its linearisation error exceeds this many sigmas")
         max_active_dims: int = param(600, ge=30, description="dense active set of the "
                                      "incremental solver before refactorising")
-        heading_feedback: float = param(1.0, ge=0, le=1, description="gain of the heading "
-                                        "correction of the odometry from the graph after a "
-                                        "radio fix (0: the paper's GEN alone)")
-        heading_baseline: float = param(10.0, unit="m", gt=0, description="shortest walk "
-                                        "over the window for a heading correction")
+        heading_states: bool = param(True, description="estimate each firefighter's INS "
+                                     "heading error, its drift rate and turn scale error in "
+                                     "the graph (false: the paper's position-only GEN)")
+        heading_sigma: float = param(0.035, unit="rad", gt=0, description="uncertainty of "
+                                     "the start heading (the known start pose)")
+        heading_rate_sigma: float = param(0.009, unit="rad/s", gt=0, description="residual "
+                                          "gyro bias about z at the start (after the INS's "
+                                          "still alignment)")
+        heading_rate_walk: float = param(1e-4, unit="rad/s/sqrt(s)", ge=0, description="random "
+                                         "walk of that bias (warm-up drift, bias instability)")
+        turn_scale_sigma: float = param(0.02, gt=0, description="gyro scale-factor error: "
+                                        "heading error per radian the INS turned")
+        turn_scale_walk: float = param(1e-3, ge=0, description="random walk of the "
+                                       "scale-factor error per step")
 
     def __init__(self, params: Params, ctx) -> None:
         super().__init__(params, ctx)
@@ -178,8 +195,9 @@ class BreadcrumbGen(Estimator):
         st = self._agents.pop(agent, None)
         if st is not None:
             for s in st.states:
-                if s.key in self.gen:
-                    self.gen.delete_node(s.key)
+                for node in (s.key, s.heading):
+                    if node is not None and node in self.gen:
+                        self.gen.delete_node(node)
 
     # -- input ---------------------------------------------------------------------------------
     def handle(self, stream: str, msg) -> None:
@@ -208,39 +226,43 @@ class BreadcrumbGen(Estimator):
         if st.states and msg.t <= st.states[-1].t:
             self.ctx.count("odometry_out_of_order")
             return
-        rot = _rotation(p.odometry_heading.get(msg.agent, 0.0) + st.psi)
+        rot = _rotation(p.odometry_heading.get(msg.agent, 0.0))
         delta = rot @ np.asarray(msg.delta, float)
         cov = rot @ np.asarray(msg.cov, float)[:3, :3] @ rot.T
         dt = max(msg.t - msg.t_start, 1e-3)
         step = float(np.hypot(delta[0], delta[1]))
         with self.gen.batch():
             if not st.states:
-                self._first_state(msg, st, rot, delta)
+                self._first_state(msg, st, rot)
             prev = st.states[-1]
             key = f"{msg.agent}@{st.count}"
             st.count += 1
+            heading = self._heading_state(msg, key, prev) if p.heading_states else None
             self.gen.add_node(key)
             if step / dt > p.max_speed:                 # §IV-F: physically impossible
                 self.ctx.count("odometry_too_fast")
                 self._warn(msg.agent, msg.t, "odometry_too_fast",
                            f"a step of {step:.1f} m in {dt:.2f} s is faster than "
                            f"{p.max_speed:g} m/s: replaced by the speed limit")
-                delta = np.zeros(3)
-                cov = np.diag([(p.max_speed * dt) ** 2] * 2 + [0.25])
+                self.gen.add_relative_position(
+                    key, prev.key, np.zeros(3),
+                    np.diag([(p.max_speed * dt) ** 2] * 2 + [0.25]))
             else:
                 extra = (p.odometry_noise_per_m * step) ** 2
                 cov = cov + np.diag([extra, extra, 0.0]) + np.eye(3) * 1e-6
-            self.gen.add_relative_position(key, prev.key, delta, cov)
-            st.states.append(_State(key, msg.t, step / dt, prev.fed + delta))
+                if heading is None:
+                    self.gen.add_relative_position(key, prev.key, delta, cov)
+                else:
+                    self.gen.add_rotated_position(key, prev.key, heading, delta, cov)
+            st.states.append(_State(key, msg.t, step / dt, heading))
             st.heading_var += float(np.asarray(msg.cov)[3, 3])
             self._release(msg.agent, st, final=False)
         self.gen.relinearize()
-        self._heading_feedback(st)
         self._forget_old(st)
-        self._publish_pose(msg, st, rot)
+        self._publish_pose(msg, st)
         self._publish_touched(msg.t)
 
-    def _first_state(self, msg: Odometry, st: _Agent, rot: np.ndarray, delta: np.ndarray) -> None:
+    def _first_state(self, msg: Odometry, st: _Agent, rot: np.ndarray) -> None:
         p = self.params
         start = p.start_positions.get(msg.agent)
         if start is None:
@@ -251,37 +273,42 @@ class BreadcrumbGen(Estimator):
         base = self.gen.estimate(p.base_id)
         self.gen.add_relative_position(key, p.base_id, start - base,
                                        np.diag([p.start_sigma ** 2] * 2 + [0.1 ** 2]))
-        st.states.append(_State(key, msg.t_start, 0.0, np.zeros(3)))
+        heading = None
+        if p.heading_states:
+            heading = f"{key}/heading"
+            self.gen.add_node(heading)
+            self.gen.add_linear([heading], np.eye(3), np.diag(
+                [p.heading_sigma ** 2, p.heading_rate_sigma ** 2, p.turn_scale_sigma ** 2]),
+                np.zeros(3))
+        st.states.append(_State(key, msg.t_start, 0.0, heading))
 
-    def _heading_feedback(self, st: _Agent) -> None:
-        """Turn the agent's future odometry by the rotation between the odometry fed over
-        the window and the graph's estimate of the same states (after a radio fix).
+    def _heading_state(self, msg: Odometry, key: str, prev: _State) -> str:
+        """The heading state of the step ending at ``msg.t``, from the previous one by
+        ``psi_k = psi_k-1 + omega dt + kappa dtheta``, ``omega`` and ``kappa`` random walks.
 
-        Not in the paper: its GEN treats steps as independent, while an INS mostly errs
-        by a slowly drifting heading, which bends whole stretches of track. Between two
-        fixes the BLUE bends the chain back; that bend is the heading error, and turning
-        the next steps by it (gain ``heading_feedback``) stops the drift from growing.
+        ``dtheta`` is the heading change the INS measured over the step; the heading's
+        process noise is the INS's own heading variance of the step (which includes the
+        errors its filter does not estimate).
         """
         p = self.params
-        if not (st.fixed and p.heading_feedback > 0 and len(st.states) >= 3):
-            return
-        st.fixed = False
-        keys = [s.key for s in st.states]
-        fed = np.array([s.fed[:2] for s in st.states])
-        a = fed - fed.mean(axis=0)
-        if float(np.hypot(*(fed[-1] - fed[0]))) < p.heading_baseline:
-            return
-        b = self.gen.estimates_of(keys)[:, :2]
-        b = b - b.mean(axis=0)
-        phi = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])),
-                         float(np.sum(a * b)))
-        st.psi += p.heading_feedback * phi
+        node = f"{key}/heading"
+        self.gen.add_node(node)
+        dt = max(msg.t - prev.t, 0.0)
+        dtheta = _wrap(float(msg.dheading))
+        F = np.array([[1.0, dt, dtheta], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+        q = np.diag([max(float(np.asarray(msg.cov)[3, 3]), 1e-10),
+                     max(p.heading_rate_walk ** 2 * dt, 1e-14),
+                     max(p.turn_scale_walk ** 2, 1e-14)])
+        self.gen.add_linear([node, prev.heading], np.hstack([np.eye(3), -F]), q, np.zeros(3))
+        return node
 
     def _forget_old(self, st: _Agent) -> None:
         """Marginalise states beyond the window (§IV-E, DeleteNode eq. 17)."""
         while len(st.states) > self.params.window:
             old = st.states.popleft()
             self.gen.delete_node(old.key)
+            if old.heading is not None:
+                self.gen.delete_node(old.heading)
 
     # -- radio -------------------------------------------------------------------------------------
     def _radio(self, msg: Range) -> None:
@@ -378,7 +405,7 @@ class BreadcrumbGen(Estimator):
             return
         self.gen.add_relative_position(na, nb, np.zeros(3), cov)
         self.ctx.count("encounters_used")
-        self._touch(na, nb)
+        self._touched.update((na, nb))
 
     def _gate_position(self, na: str, nb: str, zeta: np.ndarray, cov: np.ndarray,
                        what: str) -> bool:
@@ -421,7 +448,7 @@ class BreadcrumbGen(Estimator):
             if self._gate_position(na, nb, np.zeros(3), cov, "range"):
                 self.gen.add_relative_position(na, nb, np.zeros(3), cov)
                 self.ctx.count("ranges_near")
-                self._touch(na, nb)
+                self._touched.update((na, nb))
             return
         h = diff / pred
         innov = msg.range_m - pred
@@ -435,7 +462,7 @@ class BreadcrumbGen(Estimator):
             self.ctx.count("ranges_weakened")
         self.gen.add_range(na, nb, msg.range_m, var, offset=off)
         self.ctx.count("ranges_used")
-        self._touch(na, nb, fix=False)
+        self._touched.update((na, nb))
 
     def _static_range(self, msg: Range) -> None:
         """Between two fixed nodes: one edge from the median of ``static_samples`` readings
@@ -474,7 +501,7 @@ class BreadcrumbGen(Estimator):
         self.gen.add_node(msg.node_id)
         self.gen.add_relative_position(msg.node_id, s.key, np.zeros(3), np.diag([v, v, 0.05]))
         self._crumbs[msg.node_id] = msg.node_id
-        self._touch(msg.node_id)
+        self._touched.add(msg.node_id)
 
     def _kicked(self, msg: BreadcrumbDrop) -> None:
         """A breadcrumb moved (§V-C): a new node, tied to the old one by ``kick_sigma``."""
@@ -492,28 +519,20 @@ class BreadcrumbGen(Estimator):
                           f"breadcrumb {msg.node_id} moved: tracked as a new node {new}")
 
     # -- output ---------------------------------------------------------------------------------
-    def _touch(self, *nodes: str, fix: bool = True) -> None:
-        """Note nodes changed by this update; ``fix``: a position fix of the firefighter
-        (an encounter or a near range), which triggers the heading feedback."""
-        self._touched.update(nodes)
-        if not fix:
-            return
-        for n in nodes:
-            agent = n.rsplit("@", 1)[0] if "@" in n else None
-            if agent in self._agents:
-                self._agents[agent].fixed = True
-
-    def _publish_pose(self, msg: Odometry, st: _Agent, rot: np.ndarray) -> None:
-        key = st.states[-1].key
-        x = self.gen.estimates_of([key])[0]
-        c = self.gen.covariances_of([key])[0]
+    def _publish_pose(self, msg: Odometry, st: _Agent) -> None:
+        state = st.states[-1]
+        x = self.gen.estimates_of([state.key])[0]
+        c = self.gen.covariances_of([state.key])[0]
         cov = np.zeros((4, 4))
         cov[:3, :3] = c
-        cov[3, 3] = st.heading_var
-        heading = math.atan2(math.sin(msg.heading + math.atan2(rot[1, 0], rot[0, 0])),
-                             math.cos(msg.heading + math.atan2(rot[1, 0], rot[0, 0])))
+        heading = msg.heading + self.params.odometry_heading.get(msg.agent, 0.0)
+        if state.heading is None:
+            cov[3, 3] = st.heading_var
+        else:
+            heading += float(self.gen.estimates_of([state.heading])[0, 0])
+            cov[3, 3] = float(self.gen.covariances_of([state.heading])[0, 0, 0])
         self.ctx.publish("pose", PoseEstimate(t=msg.t, agent=msg.agent, device=msg.device,
-                                              position=x, heading=heading, cov=cov))
+                                              position=x, heading=_wrap(heading), cov=cov))
 
     def _publish_touched(self, t: float) -> None:
         crumbs = {node: bc for bc, node in self._crumbs.items()}
@@ -547,6 +566,12 @@ class BreadcrumbGen(Estimator):
         if code not in st.warned:
             st.warned.add(code)
             self.ctx.diagnose(t, "warning", code, text, agent=agent)
+
+
+def _wrap(angle: float) -> float:
+    """Angle [rad] wrapped to (-pi, pi]."""
+    a = math.remainder(angle, 2.0 * math.pi)
+    return math.pi if a == -math.pi else a
 
 
 def _rotation(angle: float) -> np.ndarray:
