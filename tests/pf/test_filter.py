@@ -208,3 +208,55 @@ def test_plugin_conformance(flat):
                  building=flat)
     check_plugin(WallCrossing, building=flat)
     check_plugin(SearchPatternIcp, building=flat)
+
+
+@pytest.mark.parametrize("noise_while_still", [True, False])
+def test_standing_still_spreads_the_cloud_only_with_noise_while_still(flat, noise_while_still):
+    """A minute at rest (ZUPT 'still' increments of a few mm): the paper's 2 Hz noise
+    spreads the cloud over the room; without it the cloud keeps its start spread and
+    moves by the increments alone."""
+    start = np.array([2.2, 2.0])                       # middle of the bedroom at the origin
+    pf, rec, _ = make_component(ParticleFilter, {"init": "known", "start": (*start, 0.0),
+                                                 "particles": 400,
+                                                 "noise_while_still": noise_while_still},
+                                building=flat)
+    pf.constraints.append(make_component(WallCrossing, {}, building=flat, cid="walls")[0])
+    pos, delta = np.zeros(3), np.array([0.002, 0.0, 0.0])
+    for k in range(1, 61):
+        pos = pos + delta
+        pf.handle("odo", Odometry(t=float(k), agent="ff1", t_start=k - 1.0, delta=delta,
+                                  dheading=0.0, cov=np.eye(4) * 1e-6, position=pos.copy(),
+                                  heading=0.0, motion="still"))
+    first, last = rec.on("pose")[0], rec.on("pose")[-1]
+    spread = last.cov[0, 0] + last.cov[1, 1]
+    if noise_while_still:       # 120 paper updates: 1.3 m per axis before the walls cut it
+        assert spread > 1.0
+    else:
+        # the 0.12 m it moved, turned by each particle's +-5 deg frame rotation
+        assert spread == pytest.approx(first.cov[0, 0] + first.cov[1, 1], abs=1e-3)
+        np.testing.assert_allclose(last.position[:2] - first.position[:2], [0.118, 0.0],
+                                   atol=2e-3)
+
+
+def test_yaw_rate_state_follows_an_uncalibrated_gyro(flat, search_walk):
+    """An INS turning at 15 deg/min (a yaw gyro turn-on bias of 0.25 deg/s): with a
+    per-particle drift rate the walls select the particles turning with it; the cloud's
+    rate turns the right way (part of the drift is taken by the heading noise) and the
+    track beats the filter without the rate state."""
+    sp = extract_search_patterns(flat)
+    loop = sp.positions(sp.sequence("right_hand"))
+    walk = drifting_walk(np.vstack([loop, loop, loop[:1]]), seed=5, drift_deg_per_min=15.0)
+    rmse: dict[float, float] = {}
+    for sigma in (0.0, 0.3):
+        pf, rec, _ = make_component(ParticleFilter, {"particles": 500, "init": "truth", "seed": 3,
+                                                     "yaw_rate_sigma_dps": sigma}, building=flat)
+        pf.constraints.append(make_component(WallCrossing, {}, building=flat, cid="walls")[0])
+        for stream, msg in walk.messages():
+            pf.handle(stream, msg)
+        _, err = errors(rec.on("pose"), walk)
+        rmse[sigma] = math.sqrt(np.mean(err ** 2))
+        p = pf.state["ff1"].particles
+        mean_rate = math.degrees(float(p.weights @ p.yaw_rate))
+    # frame rotation = building heading - INS heading: it turns at -15 deg/min
+    assert -0.4 < mean_rate < -0.08
+    assert rmse[0.3] < rmse[0.0] and rmse[0.3] < 1.0

@@ -69,3 +69,13 @@ def test_walk_offset_is_the_imu_yaw_minus_the_walking_direction():
         pos = pos + 0.7 * np.array([math.cos(direction), math.sin(direction), 0.0])
         h.append(float(k), pos, direction + offset)
     assert h.walk_offset(20.0) == pytest.approx(offset, abs=1e-9)
+
+
+def test_yaw_rate_turns_the_frame_and_the_increment_by_its_middle_rotation():
+    rate = np.array([0.0, 0.1, -0.2])                             # rad/s
+    p = Particles.create(np.zeros((3, 2)), np.zeros(3), yaw_rate=rate)
+    propagate(p, np.array([1.0, 0.0]), 2.0, MotionNoise(0.0, 0.5, 0.0), np.random.default_rng(),
+              drift_s=2.0)
+    np.testing.assert_allclose(p.yaw, 2.0 * rate)
+    np.testing.assert_allclose(p.xy, np.column_stack([np.cos(rate), np.sin(rate)]), atol=1e-12)
+    np.testing.assert_allclose(p.take(np.array([2, 1])).yaw_rate, rate[[2, 1]])

@@ -149,9 +149,10 @@ class SearchPatternIcp(ParticleConstraint):
         self._keep_reachable(xy, obs.position[idx], obs.floor[idx], step.building, rng)
         heading = obs.heading[idx] + rng.standard_normal(n) * math.radians(
             self.params.resample_heading_sigma_deg)
-        scale = step.particles.scale[rng.integers(0, len(step.particles), n)]
+        donors = rng.integers(0, len(step.particles), n)   # step scale, yaw rate: the cloud's
         self.ctx.count("pseudo_observation_particles", n)
-        return Particles.create(xy, step.frame_yaw_for(heading), obs.floor[idx], scale)
+        return Particles.create(xy, step.frame_yaw_for(heading), obs.floor[idx],
+                                step.particles.scale[donors], step.particles.yaw_rate[donors])
 
     def _keep_reachable(self, xy: np.ndarray, node: np.ndarray, floor: np.ndarray, building,
                         rng: np.random.Generator, tries: int = 5) -> None:

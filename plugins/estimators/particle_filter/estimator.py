@@ -72,9 +72,17 @@ class ParticleFilterParams(Params):
                                   description="update period the noise figures refer to (2 Hz in §V-B)")
     heading_noise_deg_per_m: float = param(2.0, unit="deg/m", ge=0,
                                            description="time-update heading noise per metre walked (§V-B)")
+    noise_while_still: bool = param(True, description="add the time-update noise also over "
+                                    "odometry increments labelled 'still' (the paper adds it "
+                                    "at every 2 Hz update); false: a foot at rest, where a "
+                                    "ZUPT INS does not drift, does not spread the particles")
     step_scale_sigma: float = param(0.0, ge=0, lt=0.5,
                                     description="spread of a per-particle step-length scale "
                                     "around 1 (0 disables the scale state)")
+    yaw_rate_sigma_dps: float = param(0.0, unit="deg/s", ge=0,
+                                      description="spread of a per-particle drift rate of the "
+                                      "INS heading, for odometry whose yaw gyro bias was not "
+                                      "calibrated (e.g. an IMU's turn-on bias; 0 disables)")
     weight_floor: float = param(0.01, ge=0, lt=1,
                                 description="particles with weight below weight_floor/N are "
                                 "replaced (epsilon = 0.01/N_p, §V-B)")
@@ -113,6 +121,9 @@ class _Pending:
     delta: np.ndarray
     dheading: float
     msg: Odometry
+    #: seconds of the summed increments that add no time-update noise (still, with
+    #: ``noise_while_still: false``)
+    quiet_s: float = 0.0
 
 
 @dataclass
@@ -199,6 +210,8 @@ class ParticleFilter(Estimator):
             st.pending.delta += delta
             st.pending.dheading += msg.dheading
             st.pending.msg = msg
+        if msg.motion == "still" and not self.params.noise_while_still:
+            st.pending.quiet_s += msg.t - msg.t_start
         if msg.t - st.pending.t_start >= self.params.update_interval_s:
             self._update(msg.agent, st)
 
@@ -239,7 +252,9 @@ class ParticleFilter(Estimator):
                                             math.radians(p.entrance_heading_sigma_deg), rng)
         ins_heading0 = msg.heading - msg.dheading
         scale = 1.0 + p.step_scale_sigma * rng.standard_normal(n) if p.step_scale_sigma else 1.0
-        st.particles = Particles.create(xy, wrap_angle(heading - ins_heading0), floor, scale)
+        rate = (math.radians(p.yaw_rate_sigma_dps) * rng.standard_normal(n)
+                if p.yaw_rate_sigma_dps else 0.0)
+        st.particles = Particles.create(xy, wrap_angle(heading - ins_heading0), floor, scale, rate)
         st.history.append(msg.t_start, np.asarray(msg.position, float) - msg.delta, ins_heading0)
         return True
 
@@ -251,7 +266,8 @@ class ParticleFilter(Estimator):
         st.history.append(msg.t, np.asarray(msg.position, float), msg.heading)
         self._update_offset(st)
         before = p.copy()
-        propagate(p, pend.delta[:2], msg.t - pend.t_start, self.noise, rng)
+        noisy_s = max(0.0, msg.t - pend.t_start - pend.quiet_s)
+        propagate(p, pend.delta[:2], noisy_s, self.noise, rng, drift_s=msg.t - pend.t_start)
         apply_stairs(p, float(pend.delta[2]), self.ctx.building)
         odo = msg if pend.t_start == msg.t_start else Odometry(
             t=msg.t, agent=agent, device=msg.device, t_start=pend.t_start, delta=pend.delta,

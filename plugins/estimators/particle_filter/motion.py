@@ -11,7 +11,9 @@ as ``n = dt / period`` updates of the paper's filter with the motion spread even
     var(yaw)                = n * (sigma_h * L / n)^2 = (sigma_h * L)^2 / n
 
 which equals the paper's noise exactly at its own rate and the same accumulated
-noise at any other rate.
+noise at any other rate. Particles with a ``yaw_rate`` (an uncalibrated yaw gyro
+bias turns the INS frame steadily) also turn their frame rotation by it. An increment with ``dt = 0`` (the estimator passes the
+time spent moving: see its ``noise_while_still``) adds no noise.
 """
 from __future__ import annotations
 
@@ -33,19 +35,35 @@ class MotionNoise:
     heading_sigma_rad_per_m: float = float(np.deg2rad(2.0))
 
     def variances(self, dt: float, distance: float) -> tuple[float, float]:
-        """(position variance per axis [m^2], yaw variance [rad^2]) for one increment."""
-        n = max(dt, 1e-9) / self.period_s
+        """(position variance per axis [m^2], yaw variance [rad^2]) for one increment of
+        ``dt`` seconds of motion [s] covering ``distance`` [m]; none when ``dt <= 0``."""
+        if dt <= 0:
+            return 0.0, 0.0
+        n = dt / self.period_s
         return n * self.position_sigma_m ** 2, (self.heading_sigma_rad_per_m * distance) ** 2 / n
 
 
 def propagate(p: Particles, delta_xy: np.ndarray, dt: float, noise: MotionNoise,
-              rng: np.random.Generator) -> None:
-    """Move every particle of ``p`` in place by the INS-frame increment ``delta_xy`` (2,) [m]."""
+              rng: np.random.Generator, drift_s: float = 0.0) -> None:
+    """Move every particle of ``p`` in place by the INS-frame increment ``delta_xy`` (2,) [m].
+
+    ``dt`` [s] is the time the noise accumulates over; ``drift_s`` [s] the whole
+    duration of the increment, over which each frame rotation turns at its
+    ``yaw_rate`` (the increment is rotated by the rotation at its middle).
+    """
+    drifting = drift_s > 0 and np.any(p.yaw_rate)
+    if drifting:
+        p.yaw = p.yaw + 0.5 * drift_s * p.yaw_rate
     c, s = np.cos(p.yaw), np.sin(p.yaw)
     dx, dy = float(delta_xy[0]), float(delta_xy[1])
     n = len(p)
     var_pos, var_yaw = noise.variances(dt, float(np.hypot(dx, dy)))
-    p.xy[:, 0] += p.scale * (c * dx - s * dy) + rng.standard_normal(n) * np.sqrt(var_pos)
-    p.xy[:, 1] += p.scale * (s * dx + c * dy) + rng.standard_normal(n) * np.sqrt(var_pos)
+    p.xy[:, 0] += p.scale * (c * dx - s * dy)
+    p.xy[:, 1] += p.scale * (s * dx + c * dy)
+    if drifting:
+        p.yaw = wrap_angle(p.yaw + 0.5 * drift_s * p.yaw_rate)
+    if var_pos > 0:
+        p.xy[:, 0] += rng.standard_normal(n) * np.sqrt(var_pos)
+        p.xy[:, 1] += rng.standard_normal(n) * np.sqrt(var_pos)
     if var_yaw > 0:
         p.yaw = wrap_angle(p.yaw + rng.standard_normal(n) * np.sqrt(var_yaw))

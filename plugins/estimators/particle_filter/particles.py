@@ -11,6 +11,8 @@ Each particle carries (search-pattern paper §IV-E):
 * ``floor`` (N,): floor index; ``climb`` (N,): vertical travel [m] accumulated on
   stairs towards the next floor change;
 * ``scale`` (N,): step-length scale applied to the odometry (1 when disabled);
+* ``yaw_rate`` (N,): drift rate of the frame rotation [rad/s] — an INS whose yaw
+  gyro bias was not calibrated turns its frame at a constant rate (0 when disabled);
 * ``logw`` (N,): normalised log-weights (log-sum-exp = 0), logs because the
   pattern likelihood exp(-E / sigma^2) underflows linear weights.
 """
@@ -50,10 +52,12 @@ class Particles:
     climb: np.ndarray
     scale: np.ndarray
     logw: np.ndarray
+    yaw_rate: np.ndarray
 
     @classmethod
     def create(cls, xy: np.ndarray, yaw: np.ndarray, floor: np.ndarray | int = 0,
-               scale: np.ndarray | float = 1.0) -> "Particles":
+               scale: np.ndarray | float = 1.0, yaw_rate: np.ndarray | float = 0.0
+               ) -> "Particles":
         """Equally weighted particles from positions and frame rotations."""
         xy = np.array(xy, dtype=float).reshape(-1, 2)
         n = len(xy)
@@ -61,7 +65,8 @@ class Particles:
                    floor=np.array(np.broadcast_to(floor, (n,)), dtype=np.int64),
                    climb=np.zeros(n),
                    scale=np.array(np.broadcast_to(scale, (n,)), dtype=float),
-                   logw=np.full(n, -np.log(n)) if n else np.zeros(0))
+                   logw=np.full(n, -np.log(n)) if n else np.zeros(0),
+                   yaw_rate=np.array(np.broadcast_to(yaw_rate, (n,)), dtype=float))
 
     def __len__(self) -> int:
         return len(self.logw)
@@ -73,12 +78,13 @@ class Particles:
 
     def copy(self) -> "Particles":
         return Particles(self.xy.copy(), self.yaw.copy(), self.floor.copy(),
-                         self.climb.copy(), self.scale.copy(), self.logw.copy())
+                         self.climb.copy(), self.scale.copy(), self.logw.copy(),
+                         self.yaw_rate.copy())
 
     def take(self, idx: np.ndarray) -> "Particles":
         """The particles at ``idx`` (copies; weights as they were, not renormalised)."""
         return Particles(self.xy[idx], self.yaw[idx], self.floor[idx], self.climb[idx],
-                         self.scale[idx], self.logw[idx])
+                         self.scale[idx], self.logw[idx], self.yaw_rate[idx])
 
     def put(self, idx: np.ndarray, other: "Particles") -> None:
         """Overwrite the particles at ``idx`` with ``other`` (same length as ``idx``)."""
@@ -87,6 +93,7 @@ class Particles:
         self.floor[idx] = other.floor
         self.climb[idx] = other.climb
         self.scale[idx] = other.scale
+        self.yaw_rate[idx] = other.yaw_rate
         self.logw[idx] = other.logw
 
     def effective_sample_size(self) -> float:

@@ -1,0 +1,24 @@
+"""The bundled pipelines of the particle filter load and validate (every parameter known)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from firenav_framework.pipeline import load_pipeline
+
+PIPELINES = Path(__file__).resolve().parents[2] / "pipelines"
+
+
+@pytest.mark.parametrize("name, overrides", [
+    ("demo.yaml", []),
+    ("search-pattern-pf.yaml", []),
+    ("search-pattern-pf.yaml", ["estimators.pf.init=truth",
+                                "building=search-pattern-pf/flat_125_moved_door.geojson"]),
+])
+def test_bundled_pipeline_validates(name, overrides):
+    spec = load_pipeline(PIPELINES / name, overrides)
+    pf = spec.by_id("pf")
+    assert pf.params.particles > 0
+    if name == "demo.yaml":       # the demo's INS is uncalibrated: the filter carries the drift
+        assert pf.params.yaw_rate_sigma_dps > 0 and not pf.params.noise_while_still
