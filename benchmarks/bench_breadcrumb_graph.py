@@ -22,11 +22,18 @@ happens). Reported per update, in the same run:
   Levenberg-Marquardt on the final graph, when ``gtsam`` is installed (optional:
   ``pip install gtsam``; never a dependency of firenav).
 
+With ``--heading-states`` every state also gets the heading state the ``breadcrumb_gen``
+plugin uses (``h = (psi, omega, kappa)``, a linear motion edge from the previous one) and
+its odometry is measured in a frame turned by a drifting heading error (a residual gyro
+bias per firefighter) and enters as a rotated relative position: two nodes and one more
+non-linear edge per update, timed against the sparse batch BLUE of the same graph.
+
 At the end: the incremental estimates against the batch optimum of the same non-linear
 problem (ours, and GTSAM's LM), and on the graph without ranges (linear) the incremental
 estimates against the batch BLUE. BLAS runs single-threaded (small dense updates).
 
-Run: ``.venv/bin/python benchmarks/bench_breadcrumb_graph.py [--seed 0] [--quick]``
+Run: ``.venv/bin/python benchmarks/bench_breadcrumb_graph.py [--seed 0] [--quick]
+[--heading-states]``
 """
 from __future__ import annotations
 
@@ -40,13 +47,19 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from firenav_plugins.estimators.breadcrumb_gen.network import (
+from firenav_plugins.estimators.breadcrumb_gen.measurements import rotate_z  # noqa: E402
+from firenav_plugins.estimators.breadcrumb_gen.network import (  # noqa: E402
     GeneralizedElectricalNetwork, batch_blue)
 
 #: Closer than this a radio contact is an encounter (§V-A): a zero relative position
 #: with ENCOUNTER_SIGMA per axis instead of a range (whose direction is meaningless there).
 ENCOUNTER_M = 1.5
 ENCOUNTER_SIGMA = 0.75
+#: Heading states (``--heading-states``): the plugin's default priors and random walks,
+#: and the true heading error's drift rate per firefighter [rad/s] (one step = 1 s).
+HEADING_PRIOR = np.diag([0.035, 0.009, 0.02]) ** 2
+HEADING_WALK = np.diag([1e-4, 1e-4, 1e-3]) ** 2
+DRIFT_RATE_SIGMA = 0.005
 
 
 @dataclass
@@ -60,6 +73,7 @@ class Update:
     ranges: list[tuple[str, float, float]] = field(default_factory=list)  # (other, r, var)
     encounters: list[str] = field(default_factory=list)   # nodes passed within 1.5 m
     drop: str | None = None               # breadcrumb dropped at this state
+    psi: float = 0.0                      # true heading error of the odometry [rad]
 
 
 def make_graph(seed: int = 0, agents: int = 20, steps: int = 95, bc_spacing: float = 6.0,
@@ -83,6 +97,7 @@ def make_graph(seed: int = 0, agents: int = 20, steps: int = 95, bc_spacing: flo
             pos[a, :2], heading[a] = (u - AREA.sum(), AREA[1] - 0.5), -np.pi / 2
         else:
             pos[a, :2], heading[a] = (0.5, u - AREA.sum() - AREA[0]), 0.0
+    drift = np.random.default_rng(seed + 1).normal(0, DRIFT_RATE_SIGMA, agents)  # [rad/s]
     last = [f"ff{a}@start" for a in range(agents)]
     crumbs: list[str] = []
     updates: list[Update] = []
@@ -102,7 +117,8 @@ def make_graph(seed: int = 0, agents: int = 20, steps: int = 95, bc_spacing: flo
             pos[a] = pos[a] + step
             key = f"ff{a}@{s}"
             truth[key] = pos[a].copy()
-            up = Update(key, last[a], step + rng.normal(0, sig_odo, 3), sig_odo ** 2 * np.eye(3))
+            up = Update(key, last[a], step + rng.normal(0, sig_odo, 3), sig_odo ** 2 * np.eye(3),
+                        psi=float(drift[a] * (s + 1)))
             last[a] = key
             statics = ["base", *crumbs]
             sp_ = np.array([truth[c] for c in statics])
@@ -137,7 +153,30 @@ def _range(rng: np.random.Generator, other: str, dist: float) -> tuple[str, floa
     return other, max(0.05, dist + rng.normal(0, sigma)), sigma ** 2
 
 
-def run_ours(updates: list[Update], linear_only: bool = False
+def add_odometry(gen: GeneralizedElectricalNetwork, up: Update, heading_states: bool
+                 ) -> list[str]:
+    """The update's new state and its odometry edge; with heading states also its heading
+    node (motion edge from the parent's, or the prior at the start) and the odometry as
+    measured in the frame turned by ``-psi``. Returns the new nodes."""
+    gen.add_node(up.key)
+    if not heading_states:
+        gen.add_relative_position(up.key, up.parent, up.odo, up.odo_cov)
+        return [up.key]
+    h = f"{up.key}/h"
+    gen.add_node(h)
+    if up.parent == "base":
+        gen.add_linear([h], np.eye(3), HEADING_PRIOR, np.zeros(3))
+        gen.add_relative_position(up.key, up.parent, up.odo, up.odo_cov)
+    else:
+        F = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])   # dt = 1 s
+        gen.add_linear([h, f"{up.parent}/h"], np.hstack([np.eye(3), -F]), HEADING_WALK,
+                       np.zeros(3))
+        odo = rotate_z(up.odo[None], np.array([-up.psi]))[0]
+        gen.add_rotated_position(up.key, up.parent, h, odo, up.odo_cov)
+    return [up.key, h]
+
+
+def run_ours(updates: list[Update], linear_only: bool = False, heading_states: bool = False
              ) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
     """Our incremental GEN, one timed update per firefighter step (``linear_only``: the
     ranges left out, so that the batch BLUE is exact without iterations)."""
@@ -146,8 +185,7 @@ def run_ours(updates: list[Update], linear_only: bool = False
     lat = np.zeros(len(updates))
     for k, up in enumerate(updates):
         t0 = time.perf_counter()
-        gen.add_node(up.key)
-        gen.add_relative_position(up.key, up.parent, up.odo, up.odo_cov)
+        new = add_odometry(gen, up, heading_states)
         with gen.batch():
             if up.ranges and not linear_only:
                 others, r, var = zip(*up.ranges)
@@ -158,7 +196,7 @@ def run_ours(updates: list[Update], linear_only: bool = False
                 gen.add_node(up.drop)
                 gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
         gen.relinearize()
-        changed = changed_nodes(up)
+        changed = [*new, *changed_nodes(up)[1:]]
         if up.drop:
             changed.append(up.drop)
         gen.estimates_of(changed)
@@ -180,15 +218,15 @@ def time_batch(gen: GeneralizedElectricalNetwork, changed: list[str]) -> float:
     return time.perf_counter() - t0
 
 
-def run_batch_sampled(updates: list[Update], every: int) -> np.ndarray:
+def run_batch_sampled(updates: list[Update], every: int, heading_states: bool = False
+                      ) -> np.ndarray:
     """Plain sparse batch BLUE after every ``every``-th update (same graph growth; only
     the batch solve is timed)."""
     gen = GeneralizedElectricalNetwork(3)
     gen.add_anchor("base", np.zeros(3))
     out = []
     for k, up in enumerate(updates):
-        gen.add_node(up.key)
-        gen.add_relative_position(up.key, up.parent, up.odo, up.odo_cov)
+        new = add_odometry(gen, up, heading_states)
         for other, r, var in up.ranges:
             gen.add_range(up.key, other, r, var)
         for other in up.encounters:
@@ -197,8 +235,7 @@ def run_batch_sampled(updates: list[Update], every: int) -> np.ndarray:
             gen.add_node(up.drop)
             gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
         if k % every == every - 1:
-            changed = changed_nodes(up)
-            out.append(time_batch(gen, changed))
+            out.append(time_batch(gen, [*new, *changed_nodes(up)[1:]]))
     return np.array(out)
 
 
@@ -279,6 +316,8 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="smaller graph (smoke test)")
     ap.add_argument("--batch-every", type=int, default=50,
                     help="time the sparse batch BLUE after every Nth update")
+    ap.add_argument("--heading-states", action="store_true",
+                    help="also time the graph with the plugin's heading states")
     args = ap.parse_args()
     steps = 20 if args.quick else 95
     updates, truth = make_graph(args.seed, steps=steps)
@@ -312,6 +351,17 @@ def main() -> None:
     print(f"linear edges only: incremental {stats(lat_lin)}; "
           f"vs batch BLUE max |dx| = {max_diff(lin.estimates(), ref):.1e} m")
 
+    if args.heading_states:
+        hs, lat_h = run_ours(updates, heading_states=True)
+        print(f"with heading states: ours {stats(lat_h)}   [{hs.solver.rebuilds} "
+              f"refactorisations, {hs.relinearised} relinearisations]")
+        print(f"with heading states: sparse batch BLUE "
+              f"{stats(run_batch_sampled(updates, args.batch_every, heading_states=True))}")
+        inc_h = {k: v for k, v in hs.estimates().items() if not str(k).endswith("/h")}
+        hs.optimize()
+        opt_h = {k: v for k, v in hs.estimates().items() if not str(k).endswith("/h")}
+        print(f"with heading states: incremental vs batch optimum max |dx| = "
+              f"{max_diff(inc_h, opt_h):.3f} m")
     try:
         import gtsam
     except ImportError:

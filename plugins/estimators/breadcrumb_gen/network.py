@@ -861,9 +861,13 @@ class GeneralizedElectricalNetwork:
             WJ = rot.info[sel] @ J
             add_dense(np.stack([rot.i[sel], rot.j[sel], rot.h[sel]], axis=1),
                       np.einsum("mrk,mrl->mkl", J, WJ), np.einsum("mrk,mr->mk", WJ, y))
+        by_size = defaultdict(list)           # dense edges stacked by their node count
         for e in (*self._mrg, *self._lin):
             if e.alive and e.applied:
-                add_dense(e.nodes[None, :], e.lam[None], e.eta[None])
+                by_size[len(e.nodes)].append(e)
+        for group in by_size.values():
+            add_dense(np.stack([e.nodes for e in group]), np.stack([e.lam for e in group]),
+                      np.stack([e.eta for e in group]))
         if rows_i:
             ri = col[np.concatenate(rows_i)]
             rj = col[np.concatenate(rows_j)]
