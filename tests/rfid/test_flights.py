@@ -131,6 +131,65 @@ def test_shuffling_on_a_flight_neither_counts_nor_ends_it(tracker):
     assert heights[2] == heights[1] and ended == ["complete"] and heights[-1] == 1.75
 
 
+def turned(strides, angle_deg: float):
+    """The strides as a heading error of ``angle_deg`` shows them: turned about the
+    first one's start."""
+    a = math.radians(angle_deg)
+    R = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    o = np.asarray(strides[0][2], float)
+    return [(g, dz, o + R @ (np.asarray(p, float) - o)) for g, dz, p in strides]
+
+
+def test_a_run_follows_its_own_direction_not_the_estimated_heading(tracker):
+    """Down flight 1 with a heading error of 50 deg growing to 75 deg (a foot INS in the
+    turns of a stairwell): the flight is entered (50 deg from its axis) and followed to
+    its end, since the strides keep their own direction."""
+    first = turned([("FW", 0.0, (4.1, 8.0))] + legs("SDB", [-0.35], (4.1, 8.0), (4.1, 8.92)), 50)
+    rest = turned([("FW", 0.0, first[-1][2])]
+                  + legs("SDB", [-0.35] * 4, first[-1][2], first[-1][2] + (0.0, 3.68)), 75)
+    heights, ended = drive(tracker, first + rest[1:] + [("FW", 0.0, rest[-1][2] + (-1.5, 0))],
+                           z0=3.5)
+    assert ended == ["complete"] and heights[-1] == 1.75
+
+
+def test_a_stride_the_gait_calls_level_continues_a_run_by_its_rise(tracker):
+    """Three strides in a row that the INS sees only 0.11 m down (the gait classifier
+    calls them level): on a flight that is still a third of a stair each, and the
+    flight is completed."""
+    strides = ([("FW", 0.0, (4.1, 8.0))]
+               + legs("SDF", [-0.3], (4.1, 8.0), (4.1, 8.92))
+               + legs("FW", [-0.11, -0.11, -0.12], (4.1, 8.92), (4.1, 11.68))
+               + legs("SDF", [-0.26], (4.1, 11.68), (4.1, 12.6))
+               + legs("FW", [0.0], (4.1, 12.6), (2.9, 12.6)))
+    heights, ended = drive(tracker, strides, z0=3.5)
+    assert ended == ["complete"] and heights[-1] == 1.75
+
+
+def test_from_a_landing_the_next_flight_whatever_the_heading(tracker):
+    """Down flight 1 to the landing, then down flight 0 with the heading 80 deg off (the
+    estimate walks west, not south): a landing has no other way down."""
+    down1 = ([("FW", 0.0, (4.1, 8.0))]
+             + legs("SDB", [-0.35] * 5, (4.1, 8.0), (4.1, 12.6))
+             + legs("FW", [0.0, 0.0], (4.1, 12.6), (1.4, 12.6)))
+    down0 = turned([("FW", 0.0, (1.4, 12.6))]
+                   + legs("SDB", [-0.3] * 5, (1.4, 12.6), (1.4, 8.0))
+                   + legs("FW", [0.0], (1.4, 8.0), (2.5, 7.9)), -80)
+    heights, ended = drive(tracker, down1 + down0[1:], z0=3.5)
+    assert ended == ["complete", "complete"] and heights[-1] == 0.0
+
+
+def test_a_floor_is_no_landing(tracker, building):
+    """The top of stair01 is floor 1, where stair12 starts: a different stair, so
+    stair-like strides there are checked against the building as anywhere else."""
+    flights = StairFlights(building, zone=3.0)
+    assert flights.is_landing("stair01", 1.75) and flights.is_landing("stair12", 5.25)
+    assert not flights.is_landing("stair01", 3.5) and not flights.is_landing("stair01", 0.0)
+    strides = ([("FW", 0.0, (4.1, 12.6))] + legs("SC", [0.35] * 5, (4.1, 12.6), (4.1, 8.0))
+               + legs("SC", [0.35, 0.35], (4.1, 8.0), (9.1, 8.0)))   # on along the corridor
+    heights, ended = drive(tracker, strides, z0=1.75)
+    assert ended == ["complete"] and heights[-2:] == [3.5, 3.5]
+
+
 # -- the estimator: a flight the INS did not see at all, put right by a stair-end tag ------
 
 STAIR_TOP_TAG = "E2000000A1B2"

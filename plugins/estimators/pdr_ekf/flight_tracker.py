@@ -14,17 +14,25 @@ say *whether* the agent walks a flight, not exactly how high:
   and the stride's horizontal displacement going along the flight in the climb (or
   descent) direction. Whatever the facing: a backward descent moves down the flight
   too. Stair-like strides anywhere else are level (a landing crossed sideways, a
-  corridor);
-* on the flight, each stride going on along it in the run's direction counts its
-  stairs: the larger of the rise's and the stride length's number of stairs (rise over
-  the stair's rise, length over its tread), rounded, one to ``max_per_stride`` (the
-  INS measures the length of a stride far better than its rise). The height is the
-  entry level plus the counted stairs, never beyond the far end. One stride that goes
-  on along the flight but that the gait calls level, or, after two stair strides, even
-  the other way by its rise (an INS glitch: turning back moves back along the flight),
-  is counted by its length; a second one in a row ends the run. Strides shorter than ``min_treads`` treads
-  (shuffling, turning on the spot) neither count nor end the run;
-* the run **ends** with a stride that leaves the flight's line or turns back, a second
+  corridor). On a **mid-storey landing** (the height is the level a flight of a stair
+  ended on, between two of its flights) a stair stride enters the stair's other flight
+  of its sign wherever the estimate is: a landing has no other way out, and the
+  estimated heading is least trustworthy right there, after the turn onto it;
+* on the flight, each stride going on in the run's own direction counts its stairs:
+  the larger of the rise's and the stride length's number of stairs (rise over the
+  stair's rise, length over its tread), rounded, one to ``max_per_stride`` (the INS
+  measures the length of a stride far better than its rise). The run's direction is
+  that of its strides so far, in the building frame as estimated: a flight is straight,
+  so this needs the INS heading over a few seconds only, not the estimated heading's
+  agreement with the building. A stride the gait calls level still counts as a stair
+  stride when the INS height moves the run's way by ``weak_rise`` of a stair (on a
+  flight a stair is likely; the gait classifier, which must work anywhere, asks for
+  more). One stride that goes on in the run's direction but level, or, after two stair
+  strides, even the other way by its rise (an INS glitch: turning back moves back
+  along the flight), is counted by its length; a second one in a row ends the run.
+  Strides shorter than ``min_treads`` treads (shuffling, turning on the spot) neither
+  count nor end the run;
+* the run **ends** with a stride that turns away from the run's direction, a second
   level stride, or a stride after every stair of the flight was counted. The flight is
   then **completed** when at least ``complete_fraction`` of its stairs were counted
   *and* the INS height changed by at least ``rise_fraction`` of its rise (strides
@@ -40,7 +48,7 @@ The ``still`` strides (rest events) neither count nor end a run.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -48,6 +56,9 @@ from .height import Flight, StairFlights
 
 __all__ = ["FlightConfig", "FlightStep", "FlightTracker"]
 
+#: The height is still a landing's level this close to it [m] (a tag's Gaussian height
+#: update may have moved it by centimetres).
+LEVEL_TOL = 0.05
 #: Gait classes -> direction of travel on a flight (+1 up, -1 down, 0 level).
 GAIT_SIGN = {"SC": 1, "SDF": -1, "SDB": -1, "FW": 0}
 
@@ -58,6 +69,7 @@ class FlightConfig:
 
     axis_cos: float = math.cos(math.radians(60.0))   # stride direction vs. flight axis
     min_treads: float = 0.5        # a stride on a flight advances at least this many treads
+    weak_rise: float = 0.3         # [stairs] INS rise the run's way that continues a run
     complete_fraction: float = 0.5  # share of a flight's stairs that completes it ...
     rise_fraction: float = 0.4     # ... with this share of its rise in the INS height
     max_per_stride: int = 2        # stairs per stride of the instrumented foot
@@ -90,6 +102,7 @@ class _Run:
     strides: int = 1     # stair strides of the run's sign
     rise: float = 0.0    # INS height change in the run's direction, strides against it as 0 [m]
     misses: int = 0      # consecutive level strides along the flight
+    way: np.ndarray = field(default_factory=lambda: np.zeros(2))   # sum of its strides [m]
 
     @property
     def full(self) -> bool:
@@ -106,6 +119,7 @@ class FlightTracker:
         self.flights = flights
         self.cfg = config or FlightConfig()
         self.run: _Run | None = None
+        self.landing: tuple[str, float] | None = None   # (stair, level [m]) of the landing stood on
 
     def stride(self, gait: str, dz: float, d: np.ndarray, xy: np.ndarray, z: float
                ) -> FlightStep:
@@ -116,7 +130,7 @@ class FlightTracker:
             return FlightStep(z)
         sign = GAIT_SIGN.get(gait, 0)
         if self.run is not None:
-            step = self._continue(sign, dz, d, xy)
+            step = self._continue(sign, dz, d)
             if step is not None:
                 return step
             ended = self._end()
@@ -127,22 +141,23 @@ class FlightTracker:
         return self._enter(sign, dz, d, xy, z)
 
     def abandon(self) -> None:
-        """Forget the run being walked (the height was set from elsewhere, e.g. a tag)."""
-        self.run = None
+        """Forget the run being walked and the landing stood on (the height was set from
+        elsewhere, e.g. a tag)."""
+        self.run = self.landing = None
 
     # -- a run on a flight ---------------------------------------------------------------
-    def _continue(self, sign: int, dz: float, d: np.ndarray, xy: np.ndarray) -> FlightStep | None:
+    def _continue(self, sign: int, dz: float, d: np.ndarray) -> FlightStep | None:
         """The stride goes on along the run's flight (its step), or None: the run ends."""
         run = self.run
         f = run.flight
         length = float(np.hypot(*d))
         if length < self.cfg.min_treads * f.tread:
             return FlightStep(run.height())     # shuffling on the spot: no stair, no exit
-        if run.full or not self._along(f, run.sign, d, xy) or (sign == -run.sign
-                                                                and run.strides < 2):
+        if run.full or not self._onward(run, d) or (sign == -run.sign and run.strides < 2):
             return None
         run.rise += max(0.0, run.sign * dz)
-        if sign == run.sign:
+        run.way += d
+        if sign == run.sign or run.sign * dz >= self.cfg.weak_rise * f.step_rise:
             run.misses = 0
             run.strides += 1
             n = self._count(f, dz, length)
@@ -154,13 +169,13 @@ class FlightTracker:
         run.stairs += n
         return FlightStep(run.height(), run.sign * n)
 
-    def _along(self, f: Flight, sign: int, d: np.ndarray, xy: np.ndarray) -> bool:
-        """Whether displacement ``d`` ending at ``xy`` goes along flight ``f`` upwards
-        (``sign`` +1) or downwards (-1), by at least ``min_treads`` treads."""
-        _, axis = f.locate(xy)
-        advance = sign * float(d @ axis)
+    def _onward(self, run: _Run, d: np.ndarray) -> bool:
+        """Whether displacement ``d`` goes on in the run's direction, by at least
+        ``min_treads`` treads."""
+        way = run.way / max(float(np.hypot(*run.way)), 1e-12)
+        advance = float(d @ way)
         return (advance >= self.cfg.axis_cos * float(np.hypot(*d))
-                and advance >= self.cfg.min_treads * f.tread)
+                and advance >= self.cfg.min_treads * run.flight.tread)
 
     def _count(self, f: Flight, dz: float, length: float) -> int:
         """Stairs of one stride on flight ``f``: rise ``dz`` [m] or horizontal ``length``
@@ -175,17 +190,37 @@ class FlightTracker:
         if (run.stairs >= self.cfg.complete_fraction * f.steps
                 and run.rise >= self.cfg.rise_fraction * f.rise):
             far = f.z_hi if run.sign > 0 else f.z_lo
+            self._stand(f, far)
             return FlightStep(far, settled=True, ended="complete", flight=f)
+        self._stand(f, run.z0)
         return FlightStep(run.z0, settled=True, ended="left", flight=f)
+
+    def _stand(self, f: Flight, level: float) -> None:
+        """A run on ``f`` ended at ``level`` [m]: remember it if it is a landing of f's stair."""
+        self.landing = (f.stair, level) if self.flights.is_landing(f.stair, level) else None
 
     def _enter(self, sign: int, dz: float, d: np.ndarray, xy: np.ndarray, z: float
                ) -> FlightStep:
         if sign == 0:
             return FlightStep(z)
-        f = self.flights.entry(xy, z, sign, d, self.cfg.axis_cos, self.cfg.min_treads)
+        f = self._from_landing(sign, z)
+        if f is None:
+            f = self.flights.entry(xy, z, sign, d, self.cfg.axis_cos, self.cfg.min_treads)
         if f is None:
             return FlightStep(z, vetoed=True)
+        self.landing = None
         self.run = _Run(f, sign, f.end(sign)[1], stairs=self._count(f, dz, float(np.hypot(*d))),
-                        rise=max(0.0, sign * dz))
+                        rise=max(0.0, sign * dz), way=d.astype(float))
         return FlightStep(self.run.height(), sign * self.run.stairs, True, entered=True,
                           flight=f)
+
+    def _from_landing(self, sign: int, z: float) -> Flight | None:
+        """The flight a stair stride of ``sign`` takes from the mid-storey landing stood
+        on, if the height ``z`` [m] is still its level; None otherwise."""
+        if self.landing is None:
+            return None
+        stair, level = self.landing
+        if abs(z - level) > LEVEL_TOL:
+            self.landing = None
+            return None
+        return self.flights.leaving(stair, level, sign)

@@ -133,6 +133,20 @@ class StairFlights:
                 best, found = dist, f
         return found
 
+    def leaving(self, stair: str, level: float, sign: int) -> Flight | None:
+        """The flight of ``stair`` a walk going up (``sign`` +1) or down (-1) enters at
+        ``level`` [m], or None."""
+        for f in self.flights:
+            if f.stair == stair and abs(f.end(sign)[1] - level) < 1e-6:
+                return f
+        return None
+
+    def is_landing(self, stair: str, level: float) -> bool:
+        """Whether ``level`` [m] is a mid-storey landing of ``stair``: flights leave it
+        both up and down."""
+        return (self.leaving(stair, level, 1) is not None
+                and self.leaving(stair, level, -1) is not None)
+
     def step_rise_at(self, position: np.ndarray) -> float | None:
         """Height of one stair [m] of the flight at ``position`` (3,), or None."""
         f = self.near(position)
