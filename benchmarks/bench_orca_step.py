@@ -15,7 +15,10 @@ Reported per step, in the same run:
 * RVO2 - ``pyrvo`` (C++ RVO2 with its obstacle k-d tree): one ``doStep`` for one agent
   with the same walls as two-vertex obstacles (optional: ``pip install pyrvo``);
 * ours, constraint - :meth:`OrcaConstraint.correct` as ``dead_reckoning`` calls it,
-  with the paper's rules and the update-matrix bookkeeping in Python.
+  with the paper's rules and the update-matrix bookkeeping in Python;
+* the bundled pipeline's companions on a continuous straight-ish walk (2 deg of
+  heading noise per step) up and down the longest wall: ``wall_follow`` (its run of up to
+  15 m of steps, the walls near it) and ``anchor_range`` with one range per step.
 
 Run: ``.venv/bin/python benchmarks/bench_orca_step.py [--plan office_loop] [--steps 20000]``
 """
@@ -27,10 +30,11 @@ import time
 
 import numpy as np
 
-from firenav_framework import Odometry
+from firenav_framework import Odometry, Range
 from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.testing import make_component
-from firenav_plugins.constraints.orca import OrcaConstraint
+from firenav_plugins.constraints.orca import (AnchorRangeConstraint, OrcaConstraint,
+                                              WallFollowConstraint)
 from firenav_plugins.constraints.orca.step_solver import WallGrid, orca_step
 from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D
 
@@ -148,6 +152,23 @@ def main() -> None:
     orca.correct(steps[0])
     full = time_per_call(lambda i: orca.correct(steps[i]), args.steps)
 
+    walk = companion_steps(floor, args.steps, rng)
+    follow, _, _ = make_component(WallFollowConstraint, {}, building=building)
+    follow.start()
+    wf = time_per_call(lambda i: follow.correct(walk[i]), args.steps, repeats=1)
+    anchor = np.array([*walk[0].prev[:2], 1.0])
+    ranged, _, _ = make_component(AnchorRangeConstraint, {}, building=_with_anchor(building,
+                                                                                   anchor))
+    ranged.start()
+
+    def range_step(i: int) -> None:
+        s = walk[i]
+        ranged.handle("uwb", Range(t=s.t - 0.5, agent="ff1", a="ff1/uwb", b="bench",
+                                   range_m=float(np.hypot(*(s.prev[:2] - anchor[:2]))),
+                                   sigma_m=0.1))
+        ranged.correct(s)
+    ar = time_per_call(range_step, args.steps, repeats=1)
+
     print(f"steps touching a wall: {100 * touched:.0f}%; grid and all-walls answers "
           f"identical: {100 * same:.1f}%")
     print(f"{'per step':<34}{'us':>8}")
@@ -155,6 +176,44 @@ def main() -> None:
     print(f"{'ours, kernel (all walls)':<34}{allw:8.2f}")
     print(f"{'RVO2 doStep (pyrvo, k-d tree)':<34}" + (f"{rvo:8.2f}" if rvo else "   (n/a)"))
     print(f"{'ours, OrcaConstraint.correct':<34}{full:8.2f}")
+    print(f"{'ours, WallFollowConstraint.correct':<34}{wf:8.2f}")
+    print(f"{'ours, AnchorRangeConstraint':<34}{ar:8.2f}")
+
+
+def companion_steps(floor, n: int, rng: np.random.Generator) -> list[OdometryStep]:
+    """A continuous walk of ``n`` steps 0.5 m beside the floor's longest wall, up and
+    down it, its heading wandering 2 deg per step and pulled back along the wall (the
+    INS frame is the building frame)."""
+    lengths = np.hypot(*(floor.walls[:, 1] - floor.walls[:, 0]).T)
+    a, b = floor.walls[int(np.argmax(lengths))]
+    length = float(lengths.max())
+    e = (b - a) / length
+    base = math.atan2(e[1], e[0])
+    pos = a + 0.5 * np.array([-e[1], e[0]])
+    heading, steps = base, []
+    for i in range(n):
+        along = float((pos - a) @ e)
+        if (along > length and math.cos(base - math.atan2(e[1], e[0])) > 0) or \
+                (along < 0 and math.cos(base - math.atan2(e[1], e[0])) < 0):
+            base, heading = base + math.pi, heading + math.pi       # turn at the end
+        heading = base + 0.8 * (heading - base) + rng.normal(0, math.radians(2))
+        d = STEP * np.array([math.cos(heading), math.sin(heading)])
+        odo = Odometry(t=float(i + 1), agent="ff1", t_start=float(i), delta=np.array([*d, 0.0]),
+                       dheading=0.0, cov=np.eye(4) * 1e-4, position=np.zeros(3), heading=heading)
+        new = pos + d
+        steps.append(OdometryStep(agent="ff1", t=float(i + 1), dt=DT, prev=np.array([*pos, 0.0]),
+                                  proposed=np.array([*new, 0.0]), heading=heading,
+                                  transform=Rigid2D(), ins_position=np.array([*new, 0.0]),
+                                  odometry=odo))
+        pos = new
+    return steps
+
+
+def _with_anchor(building, position: np.ndarray):
+    from dataclasses import replace
+
+    from firenav_framework.building import Anchor
+    return replace(building, anchors=[Anchor("bench", "uwb", position, 0)])
 
 
 if __name__ == "__main__":

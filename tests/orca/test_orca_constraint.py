@@ -190,3 +190,18 @@ def test_a_step_through_the_middle_of_a_doorway_is_free():
     end = w.step(0.0, -1.3)
     assert w.counts() == {}
     np.testing.assert_allclose(end[:2], [1.0, -0.3], atol=1e-12)
+
+
+def test_a_turn_square_into_a_wall_does_not_hide_a_wrong_compartment():
+    """Turning 60 deg from along the wall straight into it (no door anywhere): during
+    the turn the contact is no shallow slide, so the path is not translated with the
+    agent; the wall holds the agent while the INS walks on, until the implied speed
+    exceeds max_speed and the agent is reset to the INS position (§2.2)."""
+    w = Walker(building(WALL), (0.0, 1.0), 0.0, orca={"max_speed": 2.5})
+    w.step(1.0, 0.0)
+    into = (0.5, -math.sqrt(3) / 2)
+    ends = [w.step(*into, turn=-math.pi / 3 if k == 0 else 0.0) for k in range(5)]
+    events = w.counts()
+    assert "orca_turn_slide" not in events and events.get("orca_reset") == 1
+    assert all(e[1] >= 0.25 - 1e-9 for e in ends[:3])
+    np.testing.assert_allclose(ends[-1][:2], [1.0 + 5 * into[0], 1.0 + 5 * into[1]], atol=1e-9)

@@ -29,8 +29,11 @@ corridor tests worse than the INS alone, see benchmarks/bench_orca_corridor.py):
 
 * ``turn_guard``: no rotation is stored during a turn (a heading change or a change of
   step direction over the last two steps), where a stride rounding a corner runs into
-  the wall although the heading is fine; the lateral offset is absorbed by a
-  translation instead;
+  the wall although the heading is fine; the lateral offset of such a shallow contact
+  (up to ``max_rotation``) is absorbed by a translation instead. A turn square into a
+  wall is only held: translating the path with the agent there would hide a wrong
+  compartment from the reset rule (orca_test3 seed 1: held at a table, the path was
+  dragged 3 m off);
 * ``door_range_gate``: a door is only taken if its expected range to the anchor(s)
   fits the measured one (the nearest door at the end of a corridor is often no door
   the firefighter went through);
@@ -256,11 +259,12 @@ class OrcaConstraint(Constraint):
             if fix is not None:
                 return self._record(me, step, fix)
             kind = "blocked"
-        if turning:
-            # During a turn the step direction is not the walking direction, and a wall
-            # contact tells of a position offset rather than a heading error: slide, and
-            # move the INS path with the agent so that the offset does not later pass
-            # for a heading error or a wrong compartment.
+        if turning and kind in ("small", "rotation"):
+            # During a turn the step direction is not the walking direction, and a
+            # shallow wall contact tells of a position offset rather than a heading
+            # error: slide, and move the INS path with the agent so that the offset does
+            # not later pass for a heading error or a wrong compartment. (A steeper
+            # contact falls through to 'blocked': the reset rule must still see it.)
             moved = pos + step.dt * v_orca
             return self._record(me, step, StepCorrection(
                 position=_with_z(moved, step), update=Rigid2D.translation(moved - target),
