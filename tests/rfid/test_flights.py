@@ -178,6 +178,24 @@ def test_from_a_landing_the_next_flight_whatever_the_heading(tracker):
     assert ended == ["complete", "complete"] and heights[-1] == 0.0
 
 
+def test_a_stair_end_tag_lets_a_lost_estimate_take_the_flight(building):
+    """Down stair12's upper flight from floor 2 (7 m), the estimate 4 m east of the
+    stairwell and walking east instead of north: no flight there, unless the tag at
+    the stair's top was just read; after more than the stair zone walked on from the
+    read, a stair stride is level again."""
+    lost = [("FW", 0.0, (8.0, 7.0))] + legs("SDB", [-0.3] * 5, (8.0, 7.0), (12.6, 7.0))
+    blind = FlightTracker(StairFlights(building, zone=3.0))
+    assert drive(blind, lost, z0=7.0)[0] == [7.0] * 5
+    told = FlightTracker(StairFlights(building, zone=3.0))
+    told.at_stair_end("stair12", 7.0)
+    heights, ended = drive(told, lost + [("FW", 0.0, (12.6, 8.5))], z0=7.0)
+    assert ended == ["complete"] and heights[-1] == 5.25
+    walked_on = FlightTracker(StairFlights(building, zone=3.0))
+    walked_on.at_stair_end("stair12", 7.0)
+    strides = [("FW", 0.0, (8.0, 3.0))] + legs("FW", [0.0] * 3, (8.0, 3.0), (8.0, 7.0)) + lost[1:]
+    assert drive(walked_on, strides, z0=7.0)[0] == [7.0] * 8
+
+
 def test_a_floor_is_no_landing(tracker, building):
     """The top of stair01 is floor 1, where stair12 starts: a different stair, so
     stair-like strides there are checked against the building as anywhere else."""

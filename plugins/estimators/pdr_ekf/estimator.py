@@ -432,6 +432,8 @@ class PdrEkf(Estimator):
                               "the track had drifted; re-located at the tag", agent=agent)
         if res.applied:
             self.ctx.count("tag_updates")
+            if site.kind == "stair" and st.flights is not None:
+                st.flights.at_stair_end(site.ref, z[2])
             return True
         self.ctx.count("tag_updates_rejected")
         self.ctx.diagnose(t, "warning", "tag_rejected",

@@ -14,10 +14,13 @@ say *whether* the agent walks a flight, not exactly how high:
   and the stride's horizontal displacement going along the flight in the climb (or
   descent) direction. Whatever the facing: a backward descent moves down the flight
   too. Stair-like strides anywhere else are level (a landing crossed sideways, a
-  corridor). On a **mid-storey landing** (the height is the level a flight of a stair
-  ended on, between two of its flights) a stair stride enters the stair's other flight
-  of its sign wherever the estimate is: a landing has no other way out, and the
-  estimated heading is least trustworthy right there, after the turn onto it;
+  corridor). At a **known stair end** a stair stride enters the stair's flight that
+  leaves it in the stride's sign, wherever the estimate is and whichever way it goes:
+  on a mid-storey landing (a run of the stair ended there; a landing has no other way
+  out, and the estimated heading is least trustworthy right there, after the turn onto
+  it), or within ``zone`` metres walked after a read of the tag at the stair's bottom or
+  top (:meth:`FlightTracker.at_stair_end`; the estimate may be metres and tens of
+  degrees off when the tag relocates it);
 * on the flight, each stride going on in the run's own direction counts its stairs:
   the larger of the rise's and the stride length's number of stairs (rise over the
   stair's rise, length over its tread), rounded, one to ``max_per_stride`` (the INS
@@ -56,9 +59,6 @@ from .height import Flight, StairFlights
 
 __all__ = ["FlightConfig", "FlightStep", "FlightTracker"]
 
-#: The height is still a landing's level this close to it [m] (a tag's Gaussian height
-#: update may have moved it by centimetres).
-LEVEL_TOL = 0.05
 #: Gait classes -> direction of travel on a flight (+1 up, -1 down, 0 level).
 GAIT_SIGN = {"SC": 1, "SDF": -1, "SDB": -1, "FW": 0}
 
@@ -119,7 +119,8 @@ class FlightTracker:
         self.flights = flights
         self.cfg = config or FlightConfig()
         self.run: _Run | None = None
-        self.landing: tuple[str, float] | None = None   # (stair, level [m]) of the landing stood on
+        # (stair, level [m], metres that may still be walked level) of a known stair end
+        self.at_end: tuple[str, float, float] | None = None
 
     def stride(self, gait: str, dz: float, d: np.ndarray, xy: np.ndarray, z: float
                ) -> FlightStep:
@@ -141,9 +142,15 @@ class FlightTracker:
         return self._enter(sign, dz, d, xy, z)
 
     def abandon(self) -> None:
-        """Forget the run being walked and the landing stood on (the height was set from
-        elsewhere, e.g. a tag)."""
-        self.run = self.landing = None
+        """Forget the run being walked and the stair end stood at (the height was set
+        from elsewhere, e.g. a tag)."""
+        self.run = self.at_end = None
+
+    def at_stair_end(self, stair: str, level: float) -> None:
+        """The tag at an end (bottom or top, at ``level`` [m]) of ``stair`` was just read:
+        the next stair stride into the stair, within ``zone`` metres walked, enters it."""
+        if self.run is None:
+            self.at_end = (stair, level, self.flights.zone)
 
     # -- a run on a flight ---------------------------------------------------------------
     def _continue(self, sign: int, dz: float, d: np.ndarray) -> FlightStep | None:
@@ -197,30 +204,34 @@ class FlightTracker:
 
     def _stand(self, f: Flight, level: float) -> None:
         """A run on ``f`` ended at ``level`` [m]: remember it if it is a landing of f's stair."""
-        self.landing = (f.stair, level) if self.flights.is_landing(f.stair, level) else None
+        self.at_end = ((f.stair, level, math.inf) if self.flights.is_landing(f.stair, level)
+                       else None)
 
     def _enter(self, sign: int, dz: float, d: np.ndarray, xy: np.ndarray, z: float
                ) -> FlightStep:
+        f = self._from_end(sign, z, float(np.hypot(*d)))
         if sign == 0:
             return FlightStep(z)
-        f = self._from_landing(sign, z)
         if f is None:
             f = self.flights.entry(xy, z, sign, d, self.cfg.axis_cos, self.cfg.min_treads)
         if f is None:
             return FlightStep(z, vetoed=True)
-        self.landing = None
+        self.at_end = None
         self.run = _Run(f, sign, f.end(sign)[1], stairs=self._count(f, dz, float(np.hypot(*d))),
                         rise=max(0.0, sign * dz), way=d.astype(float))
         return FlightStep(self.run.height(), sign * self.run.stairs, True, entered=True,
                           flight=f)
 
-    def _from_landing(self, sign: int, z: float) -> Flight | None:
-        """The flight a stair stride of ``sign`` takes from the mid-storey landing stood
-        on, if the height ``z`` [m] is still its level; None otherwise."""
-        if self.landing is None:
+    def _from_end(self, sign: int, z: float, length: float) -> Flight | None:
+        """The flight a stride of ``sign`` and horizontal ``length`` [m] enters from the
+        known stair end (height ``z`` [m] within half the flight's rise of its level), or
+        None; a level stride uses up the distance that may be walked from a tag's end."""
+        if self.at_end is None:
             return None
-        stair, level = self.landing
-        if abs(z - level) > LEVEL_TOL:
-            self.landing = None
+        stair, level, budget = self.at_end
+        if sign == 0:
+            budget -= length
+            self.at_end = (stair, level, budget) if budget > 0 else None
             return None
-        return self.flights.leaving(stair, level, sign)
+        f = self.flights.leaving(stair, level, sign)
+        return f if f is not None and abs(z - level) <= 0.5 * f.rise else None
