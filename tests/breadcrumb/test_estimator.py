@@ -133,15 +133,35 @@ def test_heading_states_learn_the_gyro_drift():
     assert sigma[later].max() < 0.5 * sigma[~later].max()   # and shrinks at the closures
 
 
-def test_graph_keeps_only_the_window_of_states():
-    msgs, _, _ = walk(laps=1)
-    comp, _, _ = make_component(BreadcrumbGen, {**PARAMS, "window": 5})
+def states_in_graph(params: dict, msgs) -> tuple[np.ndarray, np.ndarray, object]:
+    """(times, firefighter states in the graph after each step, component)."""
+    comp, _, _ = make_component(BreadcrumbGen, params)
     comp.start()
+    t, n = [], []
     for s, m in msgs:
         comp.handle(s, m)
-    states = [k for k in comp.gen.nodes if str(k).startswith("ff1@")]
-    assert len(states) == 10                     # 5 states, each with its heading state
-    assert sum(str(k).endswith("/heading") for k in states) == 5
+        if s == "odo":
+            keys = [str(k) for k in comp.gen.nodes if str(k).startswith("ff1@")]
+            assert sum(k.endswith("/heading") for k in keys) in (0, len(keys) // 2)
+            t.append(m.t)
+            n.append(sum(not k.endswith("/heading") for k in keys))
+    return np.array(t), np.array(n), comp
+
+
+def test_graph_keeps_the_window_and_the_states_with_unsettled_headings():
+    """§IV-E window; with heading states, a state whose heading is still uncertain (the
+    first lap, before the loop closes at the base at t = 110 s) is not marginalised until
+    a closure settles it, and never more than ``window_max`` are kept."""
+    msgs, _, _ = walk(laps=2)
+    t, n, _ = states_in_graph({**PAPER, "window": 5}, msgs)
+    assert np.all(n[4:] == 5)
+    t, n, comp = states_in_graph({**PARAMS, "window": 5}, msgs)
+    assert n[t < 110].max() > 80                       # the whole first lap is kept ...
+    assert np.all(n[(t > 110) & (t < 116)] == 5)       # ... until the closure settles it
+    assert n[t > 110].max() < 0.5 * n[t < 110].max()   # later breadcrumbs settle sooner
+    assert comp.ctx.stats.counts[comp.ctx.id]["states_kept_unsettled"] > 0
+    _, n, _ = states_in_graph({**PARAMS, "window": 5, "window_max": 30}, msgs)
+    assert n.max() == 30
 
 
 def test_impossible_speed_is_dropped():

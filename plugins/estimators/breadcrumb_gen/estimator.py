@@ -102,7 +102,7 @@ class BreadcrumbGen(Estimator):
                                                    "rotation from the odometry frame into "
                                                    "the building frame (default 0: odometry "
                                                    "already in the building frame)")
-        odometry_noise_per_m: float = param(0.3, ge=0, description="extra horizontal std per "
+        odometry_noise_per_m: float = param(0.05, ge=0, description="extra horizontal std per "
                                             "axis per metre of step, for INS errors the "
                                             "per-step covariance leaves out")
         max_speed: float = param(5.0, unit="m/s", gt=0, description="a step faster than this "
@@ -136,6 +136,12 @@ class BreadcrumbGen(Estimator):
                                   "the firefighter state nearest in time, at most this far")
         window: int = param(20, ge=2, description="past states per firefighter kept in the "
                             "graph; older ones are marginalised (§IV-E, eq. 17)")
+        window_max: int = param(200, ge=2, description="past states kept at most while the "
+                                "oldest one's heading is unsettled (heading states; "
+                                "never fewer than window)")
+        settle_heading_sigma: float = param(0.1, unit="rad", gt=0, description="a state is "
+                                            "marginalised only once its heading is known "
+                                            "this well (heading states)")
         relinearize_sigma: float = param(0.1, gt=0, description="re-linearise a range when "
                                          "its linearisation error exceeds this many sigmas")
         max_active_dims: int = param(600, ge=30, description="dense active set of the "
@@ -303,9 +309,24 @@ class BreadcrumbGen(Estimator):
         return node
 
     def _forget_old(self, st: _Agent) -> None:
-        """Marginalise states beyond the window (§IV-E, DeleteNode eq. 17)."""
-        while len(st.states) > self.params.window:
-            old = st.states.popleft()
+        """Marginalise states beyond the window (§IV-E, DeleteNode eq. 17).
+
+        Marginalising freezes the linearisation of a state's odometry (turned by its
+        heading estimate), and a heading wrong by ``a`` then misplaces every later node by
+        about ``a^2 / 2`` of the step: 5 % at 0.3 rad, typical before the first loop
+        closure. So a state whose heading is still more uncertain than
+        ``settle_heading_sigma`` stays (up to ``window_max`` states) until a closure has
+        fixed it and its odometry has been re-linearised.
+        """
+        p = self.params
+        while len(st.states) > p.window:
+            old = st.states[0]
+            if (old.heading is not None and len(st.states) <= p.window_max
+                    and self.gen.covariances_of([old.heading])[0, 0, 0]
+                    > p.settle_heading_sigma ** 2):
+                self.ctx.count("states_kept_unsettled")
+                return
+            st.states.popleft()
             self.gen.delete_node(old.key)
             if old.heading is not None:
                 self.gen.delete_node(old.heading)
