@@ -58,9 +58,10 @@ ANCHOR = Anchor("uwb_entrance", "uwb", np.array([10.0, 1.5, 1.0]), 0)
 @pytest.mark.parametrize("with_range, door", [(False, "A"), (True, "B")])
 def test_missed_door_moves_the_agent_to_the_door_the_range_supports(with_range, door):
     """The dead-reckoned path turns south 0.8 m west of door A, square into the wall;
-    the firefighter really went through door B, 1.5 m further east."""
+    the firefighter really went through door B, 1.5 m further east. Without a range
+    (and door_needs_range off) the nearest door is taken."""
     b = building(DOORS_WALL, DOORS, [ANCHOR])
-    w = Walker(b, (-3.0, 1.0), 0.0, orca={})
+    w = Walker(b, (-3.0, 1.0), 0.0, orca={"door_needs_range": with_range})
     for _ in range(2):
         w.step(1.1, 0.0)                              # along the corridor to x = -0.8
     w.step(0.0, 0.0, turn=-math.pi / 2)               # turn on the spot (stance)
@@ -78,6 +79,17 @@ def test_missed_door_moves_the_agent_to_the_door_the_range_supports(with_range, 
     np.testing.assert_allclose(after[:2], [center, -1.6], atol=1e-9)
     track = np.array([p.position[:2] for p in w.rec.on("pose")])
     assert not b.floors[0].crosses_wall(track[:-1], track[1:]).any()
+
+
+def test_without_a_range_a_square_hit_is_no_door_by_default():
+    """A walker overshooting a corner hits the wall square: with no range to tell a
+    missed door from that, the wall holds the agent."""
+    b = building(DOORS_WALL, DOORS, [ANCHOR])
+    w = Walker(b, (-3.0, 1.0), -math.pi / 2, orca={})
+    end = w.step(0.0, -1.3)
+    counts = w.counts()
+    assert counts.get("orca_door_no_range") == 1 and "orca_door" not in counts
+    assert end[1] >= 0.25 - 1e-9
 
 
 def test_range_that_fits_no_door_keeps_the_agent_out():

@@ -23,7 +23,7 @@ For a sliding contact theta equals that angle; near a wall's end (a door jamb) O
 slip past the end with a small rotation although the step ran square into the wall,
 which is why the rule is read on the angle of the step to the wall.
 
-Three guards, not in the paper, keep position errors from being taken for heading
+Guards, not in the paper, keep position errors from being taken for heading
 errors or doors (each can be switched off; without them the rules make the simulated
 corridor tests worse than the INS alone, see benchmarks/bench_orca_corridor.py):
 
@@ -36,7 +36,12 @@ corridor tests worse than the INS alone, see benchmarks/bench_orca_corridor.py):
   dragged 3 m off);
 * ``door_range_gate``: a door is only taken if its expected range to the anchor(s)
   fits the measured one (the nearest door at the end of a corridor is often no door
-  the firefighter went through);
+  the firefighter went through); with ``door_needs_range`` no door is taken without
+  a fresh range: a walker overshooting a room's corner hits the wall square too
+  (search_flat_left, no UWB: the nearest door 2.6 m away was taken, and the track got
+  lost in the wrong rooms); a door the track really missed is caught by the reset;
+* ``door_pass``: a step whose line goes through a doorway while the disc clips a jamb
+  is centred in the door rather than slid past the jamb;
 * ``min_step``: a move shorter than this (a shuffle while standing at a check point)
   is only held at the wall; its direction means nothing.
 
@@ -160,6 +165,11 @@ class OrcaConstraint(Constraint):
         door_range_gate: float = param(2.0, unit="m", gt=0, description="a door is taken "
                                        "only if its expected range to each anchor is within "
                                        "this of the measured range (plus 3 sigma)")
+        door_needs_range: bool = param(True, description="the missed-door rule fires only "
+                                       "with a fresh range to an anchor: without one a square "
+                                       "hit is as likely a walker overshooting a room's "
+                                       "corner, and a door the track really missed is caught "
+                                       "by the reset rule")
         turn_guard: float | None = param(math.radians(30.0), unit="rad", gt=0, description=
                                          "no rotation is stored while the INS heading or the "
                                          "step direction turned more than this over the last "
@@ -298,6 +308,9 @@ class OrcaConstraint(Constraint):
         f = line_crossing(pos, move, seg)
         crossing = pos + f * move
         ranges = self._fresh_ranges(me, step.t)
+        if not ranges and p.door_needs_range:
+            self.ctx.count("orca_door_no_range")
+            return None
         tag_z = self._building.floors[floor_idx].z + p.tag_height
         k = doors.choose(pos, crossing, move, seg, ranges, tag_z, p.door_search_radius,
                          p.door_line_tolerance)
