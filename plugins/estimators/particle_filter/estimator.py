@@ -4,7 +4,10 @@ Per firefighter, once per odometry update (the paper downsamples odometry to 2 H
 §V-B; faster odometry is summed into increments of at least ``update_interval_s``):
 
 1. time update: move every particle by the increment rotated by its own frame
-   rotation, add noise (:mod:`.motion`), change floors on stairs (:mod:`.stairs`);
+   rotation, add noise (:mod:`.motion`; none over 'still' increments with
+   ``noise_while_still: false``), turn each frame rotation by its drift rate
+   (``yaw_rate_sigma_dps`` > 0, for an INS with an uncalibrated yaw gyro bias), change
+   floors on stairs (:mod:`.stairs`);
 2. measurement updates: every attached constraint adds log-weights
    (:mod:`.constraint`), e.g. ``wall_crossing`` and ``search_pattern_icp`` (eq. 3);
 3. particles removed by a constraint or with a weight below epsilon = weight_floor/N
