@@ -60,3 +60,14 @@ def test_beats_ins_alone_at_the_check_points_of_test_ii(repo):
     ins = evaluate(repo / "pipelines" / "ins-baseline.yaml", **kw).overall
     assert ours.rmse_m < 0.5 * ins.rmse_m
     assert ours.max_m < ins.max_m
+
+
+def test_through_the_room_of_test_iii_it_stays_close(repo):
+    """Test III, the seed where a turn into a table once dragged the whole path 3 m off
+    (a translation per held step, hiding the wrong compartment from the reset rule):
+    the corrected track stays within half the INS alone's check-point RMSE."""
+    kw = dict(scenario="orca_test3", seeds=[1], truth_mode="checkpoints")
+    ours = evaluate(repo / "pipelines" / "orca-map-matching.yaml", **kw).overall
+    ins = evaluate(repo / "pipelines" / "ins-baseline.yaml", **kw).overall
+    assert ours.rmse_m < 0.5 * ins.rmse_m
+    assert ours.max_m < 0.5 * ins.max_m
