@@ -35,7 +35,7 @@ from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.testing import make_component
 from firenav_plugins.constraints.orca import (AnchorRangeConstraint, OrcaConstraint,
                                               WallFollowConstraint)
-from firenav_plugins.constraints.orca.step_solver import WallGrid, orca_step
+from firenav_plugins.constraints.orca.step_solver import WallGrid
 from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D
 
 R, TAU, STEP, DT = 0.25, 2.0, 1.3, 1.0
