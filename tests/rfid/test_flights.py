@@ -196,6 +196,25 @@ def test_a_stair_end_tag_lets_a_lost_estimate_take_the_flight(building):
     assert drive(walked_on, strides, z0=7.0)[0] == [7.0] * 8
 
 
+def test_a_late_stair_end_read_takes_the_strides_since_onto_the_flight(building):
+    """The same lost descent, the tag's read arriving after three strides down (the
+    reader closes a pass seconds after the read): those strides are walked again from
+    the stair's top, and the flight is completed with the next two."""
+    lost = [("FW", 0.0, (8.0, 7.0))] + legs("SDB", [-0.3] * 5, (8.0, 7.0), (12.6, 7.0))
+    tracker = FlightTracker(StairFlights(building, zone=3.0))
+    xy, z = np.asarray(lost[0][2], float), 7.0
+    for k, (_, dz, end) in enumerate(lost[1:4]):      # vetoed: the gait calls them level
+        tracker.stride("FW", dz, end - xy, end, z, t=100.0 + k)
+        xy = end
+    step = tracker.at_stair_end("stair12", 7.0, t=99.5)
+    assert step is not None and step.z == pytest.approx(7.0 - 6 * 0.175)
+    heights, ended = drive(tracker, lost[3:] + [("FW", 0.0, (12.6, 8.5))], z0=step.z)
+    assert ended == ["complete"] and heights[-1] == 5.25
+    late = FlightTracker(StairFlights(building, zone=3.0))
+    late.stride("FW", -0.3, np.array([0.9, 0.0]), np.array([8.9, 7.0]), 7.0, t=100.0)
+    assert late.at_stair_end("stair12", 7.0, t=100.5) is None    # nothing since the read
+
+
 def test_a_floor_is_no_landing(tracker, building):
     """The top of stair01 is floor 1, where stair12 starts: a different stair, so
     stair-like strides there are checked against the building as anywhere else."""

@@ -233,6 +233,7 @@ class PdrEkf(Estimator):
 
     def _classify(self, st: _Agent, msg: Odometry, delta: np.ndarray, foot: float) -> StrideGait:
         near = (self.params.stair_zone is None or not len(self._stairs)
+                or (st.flights is not None and st.flights.on_stairs)
                 or self._stairs.near(self._now(st)) is not None)
         stride = st.gait.classify(delta, foot, near)
         if self.params.gait_source == "odometry" and msg.motion in MOTION_GAITS:
@@ -246,7 +247,7 @@ class PdrEkf(Estimator):
         x = st.filt.x
         d_b = x[I_LAMBDA] * (rot2(x[I_DTHETA]) @ d)
         now = self._now(st)
-        step = st.flights.stride(gait.gait, gait.dz, d_b, now[:2] + d_b, float(now[2]))
+        step = st.flights.stride(gait.gait, gait.dz, d_b, now[:2] + d_b, float(now[2]), t)
         label = "FW" if step.vetoed else gait.gait
         if step.vetoed:
             self.ctx.count("stair_strides_off_flights")
@@ -433,7 +434,7 @@ class PdrEkf(Estimator):
         if res.applied:
             self.ctx.count("tag_updates")
             if site.kind == "stair" and st.flights is not None:
-                st.flights.at_stair_end(site.ref, z[2])
+                self._stair_end(agent, st, t, site, float(z[2]))
             return True
         self.ctx.count("tag_updates_rejected")
         self.ctx.diagnose(t, "warning", "tag_rejected",
@@ -441,6 +442,19 @@ class PdrEkf(Estimator):
                           f"from {agent}'s estimate ({math.sqrt(res.nis):.1f} sigma): not used "
                           "(a duplicated tag id, or a wrong association?)", agent=agent)
         return False
+
+    def _stair_end(self, agent: str, st: _Agent, t: float, site: TagSite, level: float) -> None:
+        """A tag at a stair's bottom or top (read at ``t``): the flight tracker knows the
+        agent was at that end, and the strides since may have gone down (or up) it."""
+        step = st.flights.at_stair_end(site.ref, level, t)
+        if step is None:
+            return
+        st.filt.set_height(step.z, SNAP_SIGMA ** 2)
+        self.ctx.count("stair_end_replays")
+        self.ctx.diagnose(t, "info", "stair_end_replay",
+                          f"{agent} read the tag at {site.id}: the strides since went "
+                          f"on the stair, height {step.z:.2f} m",
+                          agent=agent)
 
     def _tag_level(self, agent: str, st: _Agent, t: float, site: TagSite, level: float,
                    dz_since: float) -> None:

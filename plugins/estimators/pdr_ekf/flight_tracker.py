@@ -20,7 +20,10 @@ say *whether* the agent walks a flight, not exactly how high:
   out, and the estimated heading is least trustworthy right there, after the turn onto
   it), or within ``zone`` metres walked after a read of the tag at the stair's bottom or
   top (:meth:`FlightTracker.at_stair_end`; the estimate may be metres and tens of
-  degrees off when the tag relocates it);
+  degrees off when the tag relocates it). The read arrives seconds late (the reader
+  closes a pass after it), so the last few strides off any flight since the read are
+  walked again from that end, those whose INS height moves ``weak_rise`` of a stair
+  into the stair taken as stair strides;
 * on the flight, each stride going on in the run's own direction counts its stairs:
   the larger of the rise's and the stride length's number of stairs (rise over the
   stair's rise, length over its tread), rounded, one to ``max_per_stride`` (the INS
@@ -51,6 +54,7 @@ The ``still`` strides (rest events) neither count nor end a run.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -59,6 +63,8 @@ from .height import Flight, StairFlights
 
 __all__ = ["FlightConfig", "FlightStep", "FlightTracker"]
 
+#: Strides off any flight remembered for a stair-end tag read that arrives after them.
+RECENT_STRIDES = 8
 #: Gait classes -> direction of travel on a flight (+1 up, -1 down, 0 level).
 GAIT_SIGN = {"SC": 1, "SDF": -1, "SDB": -1, "FW": 0}
 
@@ -121,12 +127,23 @@ class FlightTracker:
         self.run: _Run | None = None
         # (stair, level [m], metres that may still be walked level) of a known stair end
         self.at_end: tuple[str, float, float] | None = None
+        # (t, gait, dz, d, xy) of the latest strides walked off any flight
+        self._recent: deque = deque(maxlen=RECENT_STRIDES)
 
-    def stride(self, gait: str, dz: float, d: np.ndarray, xy: np.ndarray, z: float
-               ) -> FlightStep:
-        """One stride: gait class, drift-corrected INS height change ``dz`` [m],
-        horizontal displacement ``d`` (2,) [m] and end position ``xy`` (2,) [m] in the
-        building frame, estimated height ``z`` [m] before it."""
+    def stride(self, gait: str, dz: float, d: np.ndarray, xy: np.ndarray, z: float,
+               t: float = math.nan) -> FlightStep:
+        """One stride ending at time ``t`` [s]: gait class, drift-corrected INS height
+        change ``dz`` [m], horizontal displacement ``d`` (2,) [m] and end position ``xy``
+        (2,) [m] in the building frame, estimated height ``z`` [m] before it."""
+        step = self._stride(gait, dz, d, xy, z)
+        if self.run is None:
+            self._recent.append((t, gait, dz, d, xy))
+        else:
+            self._recent.clear()
+        return step
+
+    def _stride(self, gait: str, dz: float, d: np.ndarray, xy: np.ndarray, z: float
+                ) -> FlightStep:
         if gait == "still":
             return FlightStep(z)
         sign = GAIT_SIGN.get(gait, 0)
@@ -141,16 +158,39 @@ class FlightTracker:
             return replace(ended, vetoed=entered.vetoed)
         return self._enter(sign, dz, d, xy, z)
 
+    @property
+    def on_stairs(self) -> bool:
+        """Whether the agent is on a flight or at a known stair end, wherever the
+        position estimate is."""
+        return self.run is not None or self.at_end is not None
+
     def abandon(self) -> None:
         """Forget the run being walked and the stair end stood at (the height was set
         from elsewhere, e.g. a tag)."""
         self.run = self.at_end = None
 
-    def at_stair_end(self, stair: str, level: float) -> None:
-        """The tag at an end (bottom or top, at ``level`` [m]) of ``stair`` was just read:
-        the next stair stride into the stair, within ``zone`` metres walked, enters it."""
-        if self.run is None:
-            self.at_end = (stair, level, self.flights.zone)
+    def at_stair_end(self, stair: str, level: float, t: float = math.inf) -> FlightStep | None:
+        """The tag at an end (bottom or top, at ``level`` [m]) of ``stair`` was read at
+        time ``t`` [s]: the next stair stride into the stair, within ``zone`` metres
+        walked, enters it, and so may the strides already walked since ``t``. Returns
+        the height those strides lead to (None: they entered no flight)."""
+        if self.run is not None:
+            return None
+        self.at_end = (stair, level, self.flights.zone)
+        into = (self.flights.leaving(stair, level, 1), self.flights.leaving(stair, level, -1))
+        sign = 1 if into[0] is not None else -1
+        f = into[0] or into[1]
+        later = [r for r in self._recent if r[0] > t]
+        self._recent.clear()
+        if f is None or not later:
+            return None
+        z, step = level, None
+        for _, gait, dz, d, xy in later:
+            if sign * dz >= self.cfg.weak_rise * f.step_rise:
+                gait = "SC" if sign > 0 else "SDF"
+            step = self._stride(gait, dz, d, xy, z)
+            z = step.z
+        return step if z != level or self.run is not None else None
 
     # -- a run on a flight ---------------------------------------------------------------
     def _continue(self, sign: int, dz: float, d: np.ndarray) -> FlightStep | None:
