@@ -16,9 +16,10 @@ say *whether* the agent walks a flight, not exactly how high:
   too. Stair-like strides anywhere else are level (a landing crossed sideways, a
   corridor). At a **known stair end** a stair stride enters the stair's flight that
   leaves it in the stride's sign, wherever the estimate is and whichever way it goes:
-  on a mid-storey landing (a run of the stair ended there; a landing has no other way
-  out, and the estimated heading is least trustworthy right there, after the turn onto
-  it), or within ``zone`` metres walked after a read of the tag at the stair's bottom or
+  on a mid-storey landing a run of the stair completed onto, on in the same direction
+  (a landing has no other way on, and the estimated heading is least trustworthy right
+  there, after the turn onto it; the way back needs the building's geometry, as the
+  INS often shows a small false climb on the level strides after a descent), or within ``zone`` metres walked after a read of the tag at the stair's bottom or
   top (:meth:`FlightTracker.at_stair_end`; the estimate may be metres and tens of
   degrees off when the tag relocates it). The read arrives seconds late (the reader
   closes a pass after it), so the last few strides off any flight since the read are
@@ -99,6 +100,18 @@ class FlightStep:
     vetoed: bool = False
 
 
+@dataclass(frozen=True)
+class _End:
+    """A known stair end: ``stair``, its ``level`` [m], the ``sign`` of the flight a stair
+    stride may take from it whatever the estimate (+1 up, -1 down), and the distance
+    [m] that may still be walked level before it is forgotten (``budget``)."""
+
+    stair: str
+    level: float
+    sign: int
+    budget: float = math.inf
+
+
 @dataclass
 class _Run:
     flight: Flight
@@ -108,6 +121,7 @@ class _Run:
     strides: int = 1     # stair strides of the run's sign
     rise: float = 0.0    # INS height change in the run's direction, strides against it as 0 [m]
     misses: int = 0      # consecutive level strides along the flight
+    came_from: _End | None = None   # the known stair end stood at when the run began
     way: np.ndarray = field(default_factory=lambda: np.zeros(2))   # sum of its strides [m]
 
     @property
@@ -126,7 +140,7 @@ class FlightTracker:
         self.cfg = config or FlightConfig()
         self.run: _Run | None = None
         # (stair, level [m], metres that may still be walked level) of a known stair end
-        self.at_end: tuple[str, float, float] | None = None
+        self.at_end: _End | None = None
         # (t, gait, dz, d, xy) of the latest strides walked off any flight
         self._recent: deque = deque(maxlen=RECENT_STRIDES)
 
@@ -176,13 +190,15 @@ class FlightTracker:
         the height those strides lead to (None: they entered no flight)."""
         if self.run is not None:
             return None
-        self.at_end = (stair, level, self.flights.zone)
         into = (self.flights.leaving(stair, level, 1), self.flights.leaving(stair, level, -1))
         sign = 1 if into[0] is not None else -1
         f = into[0] or into[1]
         later = [r for r in self._recent if r[0] > t]
         self._recent.clear()
-        if f is None or not later:
+        if f is None:
+            return None
+        self.at_end = _End(stair, level, sign, self.flights.zone)
+        if not later:
             return None
         z, step = level, None
         for _, gait, dz, d, xy in later:
@@ -237,15 +253,11 @@ class FlightTracker:
         if (run.stairs >= self.cfg.complete_fraction * f.steps
                 and run.rise >= self.cfg.rise_fraction * f.rise):
             far = f.z_hi if run.sign > 0 else f.z_lo
-            self._stand(f, far)
+            self.at_end = (_End(f.stair, far, run.sign)
+                           if self.flights.is_landing(f.stair, far) else None)
             return FlightStep(far, settled=True, ended="complete", flight=f)
-        self._stand(f, run.z0)
+        self.at_end = run.came_from          # back where it was
         return FlightStep(run.z0, settled=True, ended="left", flight=f)
-
-    def _stand(self, f: Flight, level: float) -> None:
-        """A run on ``f`` ended at ``level`` [m]: remember it if it is a landing of f's stair."""
-        self.at_end = ((f.stair, level, math.inf) if self.flights.is_landing(f.stair, level)
-                       else None)
 
     def _enter(self, sign: int, dz: float, d: np.ndarray, xy: np.ndarray, z: float
                ) -> FlightStep:
@@ -256,9 +268,9 @@ class FlightTracker:
             f = self.flights.entry(xy, z, sign, d, self.cfg.axis_cos, self.cfg.min_treads)
         if f is None:
             return FlightStep(z, vetoed=True)
-        self.at_end = None
         self.run = _Run(f, sign, f.end(sign)[1], stairs=self._count(f, dz, float(np.hypot(*d))),
-                        rise=max(0.0, sign * dz), way=d.astype(float))
+                        rise=max(0.0, sign * dz), way=d.astype(float), came_from=self.at_end)
+        self.at_end = None
         return FlightStep(self.run.height(), sign * self.run.stairs, True, entered=True,
                           flight=f)
 
@@ -266,12 +278,14 @@ class FlightTracker:
         """The flight a stride of ``sign`` and horizontal ``length`` [m] enters from the
         known stair end (height ``z`` [m] within half the flight's rise of its level), or
         None; a level stride uses up the distance that may be walked from a tag's end."""
-        if self.at_end is None:
+        end = self.at_end
+        if end is None:
             return None
-        stair, level, budget = self.at_end
         if sign == 0:
-            budget -= length
-            self.at_end = (stair, level, budget) if budget > 0 else None
+            self.at_end = (replace(end, budget=end.budget - length)
+                           if end.budget > length else None)
             return None
-        f = self.flights.leaving(stair, level, sign)
-        return f if f is not None and abs(z - level) <= 0.5 * f.rise else None
+        if sign != end.sign:
+            return None
+        f = self.flights.leaving(end.stair, end.level, sign)
+        return f if f is not None and abs(z - end.level) <= 0.5 * f.rise else None
