@@ -59,7 +59,6 @@ sensor's ``range`` port); the anchors' positions from the building.
 """
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -69,6 +68,7 @@ import numpy as np
 from firenav_framework import Constraint, Params, PerAgent, Range, param
 from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, StepCorrection
 
+from .anchors import AnchorSite
 from .doors import DoorTable, RangeFix
 from .step_solver import FREE, WallGrid
 from .turns import TurnHistory
@@ -201,14 +201,11 @@ class OrcaConstraint(Constraint):
         self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
         self._grids: dict[int, WallGrid] = {}
         self._doors: dict[int, DoorTable] = {}
-        self._anchors: dict[str, np.ndarray] = {}
+        self._site: AnchorSite | None = None
 
     def start(self) -> None:
-        building = self.ctx.building
-        self._building = building
-        self._anchors = {a.id: np.asarray(a.position, float) for a in building.anchors}
-        levels = [f.z for f in building.floors]
-        self._level_mids = [(a + b) / 2 for a, b in zip(levels, levels[1:])]
+        self._site = AnchorSite(self.ctx.building)
+        self._building = self.ctx.building
         self._no_team = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
 
     def reset(self, agent: str) -> None:
@@ -218,17 +215,13 @@ class OrcaConstraint(Constraint):
     def handle(self, stream: str, msg: Range) -> None:
         if not isinstance(msg, Range):
             return
-        anchor = msg.b if msg.b in self._anchors else msg.a if msg.a in self._anchors else None
+        anchor = self._site.usable_anchor(msg, self.ctx.count)
         if anchor is None:
-            self.ctx.count("ranges_unknown_anchor")
-            return
-        if not (math.isfinite(msg.range_m) and msg.range_m >= 0 and msg.sigma_m > 0):
-            self.ctx.count("ranges_invalid")
             return
         self.agents[msg.agent].ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
 
     def _fresh_ranges(self, agent: _Agent, t: float) -> list[RangeFix]:
-        return [RangeFix(self._anchors[a], r, s) for a, (tr, r, s) in sorted(agent.ranges.items())
+        return [RangeFix(self._site.positions[a], r, s) for a, (tr, r, s) in sorted(agent.ranges.items())
                 if abs(t - tr) <= self.params.range_max_age]
 
     # -- the odometry_correction protocol ----------------------------------------------
@@ -237,7 +230,7 @@ class OrcaConstraint(Constraint):
         me = self.agents[step.agent]
         turning = self._turning(me, step)
         pos, target = step.prev[:2], step.proposed[:2]
-        floor_idx = bisect.bisect_right(self._level_mids, step.prev[2])
+        floor_idx = self._site.floor_index(step.prev[2])
         if math.hypot(target[0] - pos[0], target[1] - pos[1]) > p.max_speed * step.dt:
             # Wrong compartment: the agent lags implausibly far behind the INS (§2.2).
             return self._record(me, step, StepCorrection(position=step.proposed.copy(),

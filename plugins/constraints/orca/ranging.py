@@ -19,7 +19,6 @@ direction and is skipped.
 """
 from __future__ import annotations
 
-import bisect
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -28,6 +27,8 @@ import numpy as np
 
 from firenav_framework import Constraint, Params, PerAgent, Range, param
 from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, StepCorrection
+
+from .anchors import AnchorSite
 
 __all__ = ["AnchorRangeConstraint"]
 
@@ -72,14 +73,10 @@ class AnchorRangeConstraint(Constraint):
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
         self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
-        self._anchors: dict[str, np.ndarray] = {}
+        self._site: AnchorSite | None = None
 
     def start(self) -> None:
-        building = self.ctx.building
-        self._building = building
-        self._anchors = {a.id: np.asarray(a.position, float) for a in building.anchors}
-        levels = [f.z for f in building.floors]
-        self._level_mids = [(a + b) / 2 for a, b in zip(levels, levels[1:])]
+        self._site = AnchorSite(self.ctx.building)
 
     def reset(self, agent: str) -> None:
         self.agents.reset(agent)
@@ -87,12 +84,8 @@ class AnchorRangeConstraint(Constraint):
     def handle(self, stream: str, msg: Range) -> None:
         if not isinstance(msg, Range):
             return
-        anchor = msg.b if msg.b in self._anchors else msg.a if msg.a in self._anchors else None
+        anchor = self._site.usable_anchor(msg, self.ctx.count)
         if anchor is None:
-            self.ctx.count("ranges_unknown_anchor")
-            return
-        if not (math.isfinite(msg.range_m) and msg.range_m >= 0 and msg.sigma_m > 0):
-            self.ctx.count("ranges_invalid")
             return
         if msg.nlos and not self.params.use_nlos:
             self.ctx.count("ranges_nlos")
@@ -101,7 +94,7 @@ class AnchorRangeConstraint(Constraint):
         while me.pending and msg.t - me.pending[0][0] > self.params.max_age:
             me.pending.popleft()            # no step came to use it (standing still)
             self.ctx.count("ranges_stale")
-        me.pending.append((msg.t, self._anchors[anchor], msg.range_m, msg.sigma_m))
+        me.pending.append((msg.t, self._site.positions[anchor], msg.range_m, msg.sigma_m))
 
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         p = self.params
@@ -117,8 +110,7 @@ class AnchorRangeConstraint(Constraint):
             due.append(me.pending.popleft())
         if not due:
             return None
-        floor_idx = bisect.bisect_right(self._level_mids, step.prev[2])
-        floor = self._building.floors[floor_idx]
+        floor = self._site.building.floors[self._site.floor_index(step.prev[2])]
         tag_z = floor.z + p.tag_height
         shift = np.zeros(2)
         for t_r, anchor, r, sigma in due:
