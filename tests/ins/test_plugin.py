@@ -191,3 +191,33 @@ def test_a_shorter_still_period_than_asked_is_used_and_reported():
     assert aligned.level == "warning" and "still period of 2.0" in aligned.text
     assert abs(aligned.t - 2.0) < 0.1
     assert len([m for m in out.on("odometry") if m.motion == "walk"]) == 4
+
+
+@pytest.mark.parametrize("yaw_bias_dps, calibrate, warned", [
+    (0.3, False, True), (0.0, False, False), (0.3, True, False)])
+def test_an_uncalibrated_gyro_bias_seen_at_a_still_start_is_reported(yaw_bias_dps, calibrate,
+                                                                      warned):
+    """The foot is still (and flat) for 6 s; the vertical gyro reads the bias alone."""
+    rec = _biased_walk(6.0, (0.0, 0.0, math.radians(yaw_bias_dps)))
+    out = run_component(ZuptIns, {"align_gyro_bias": calibrate, "alignment_duration": 5.0},
+                        blocks(rec))
+    found = [d for d in out.on("diagnostics") if d.code == "ins_gyro_uncalibrated"]
+    assert bool(found) == warned
+    if warned:
+        (d,) = found
+        rate = float(d.text.split("read ")[1].split(" deg/s")[0])
+        assert abs(rate - yaw_bias_dps) < 0.02 and "align_gyro_bias: true" in d.text
+
+
+def test_gyro_noise_over_a_short_still_start_is_not_taken_for_a_bias():
+    """A noisy consumer gyro (0.1 deg/s/rtHz) averaged over 0.1 s: the mean wanders by
+    ~0.3 deg/s; the warning needs five times that."""
+    rng = np.random.default_rng(3)
+    warned = 0
+    for _ in range(10):
+        rec = _biased_walk(1.0, (0.0, 0.0, 0.0))
+        rec.gyro[:] += rng.normal(0.0, math.radians(0.1) * math.sqrt(200.0), rec.gyro.shape)
+        out = run_component(ZuptIns, {"gyro_noise_density": math.radians(0.1),
+                                      "sample_rate": 200.0}, blocks(rec))
+        warned += any(d.code == "ins_gyro_uncalibrated" for d in out.on("diagnostics"))
+    assert warned == 0

@@ -273,7 +273,6 @@ def flush(ring: np.ndarray, ist: np.ndarray, dq: np.ndarray, cfg: DetectorConfig
     m = ring.shape[0]
     h = cfg.window // 2
     raw_lag = h + (cfg.ahead if cfg.kind == ADAPTIVE else 0)
-    run_lag = max(cfg.min_stance, 1) - 1
     n = ist[D_N_IN]
     last = n - 1
     for c in range(max(0, n - h), n):

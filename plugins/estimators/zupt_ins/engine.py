@@ -66,6 +66,19 @@ class InsEngine:
         return int(self._filt[2][eskf.I_ALIGN_N])
 
     @property
+    def alignment_yaw_rate(self) -> float:
+        """Mean angular rate [rad/s] about the vertical (the mean specific force's
+        direction) over the still samples of the alignment: the gyro bias that turns the
+        heading when it is not calibrated out."""
+        fs = self._filt[3]
+        up = fs[eskf.F_ALIGN_ACC:eskf.F_ALIGN_ACC + 3]
+        norm = float(np.linalg.norm(up))
+        if norm == 0.0:
+            return 0.0
+        return float(fs[eskf.F_ALIGN_GYRO:eskf.F_ALIGN_GYRO + 3] @ up) / norm / max(
+            self.alignment_samples, 1)
+
+    @property
     def gaps(self) -> int:
         """Sample intervals longer than ``max_dt`` (integrated as max_dt)."""
         return int(self._filt[2][eskf.I_GAPS])

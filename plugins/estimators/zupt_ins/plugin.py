@@ -35,6 +35,9 @@ MAX_SWING = 10.0
 YAW_REPORT_STEP = math.radians(5.0)
 #: A recurring input problem of one device is reported at most once per this much data time [s].
 REPORT_INTERVAL = 10.0
+#: A still start whose mean yaw rate [deg/s] exceeds this, with align_gyro_bias off, gets a
+#: warning: ten times an industrial MEMS gyro's bias instability, 6 deg a minute of heading.
+UNCALIBRATED_YAW_RATE_DPS = 0.1
 
 
 @dataclass
@@ -205,6 +208,19 @@ class ZuptIns(Estimator):
             + (f" on a still period of {used * self.params.alignment_duration:.2f} s, shorter "
                f"than alignment_duration {self.params.alignment_duration:g} s"
                if short else "") + "; navigation started", agent=agent)
+        yaw_rate = abs(math.degrees(dev.engine.alignment_yaw_rate))
+        # the mean of white noise over the still time must not pass for a bias
+        noise = math.degrees(self.params.gyro_noise_density) / math.sqrt(
+            used * self.params.alignment_duration)
+        if not self.params.align_gyro_bias and yaw_rate > max(UNCALIBRATED_YAW_RATE_DPS,
+                                                              5 * noise):
+            self.ctx.count("uncalibrated_gyro_starts")
+            self.ctx.diagnose(
+                t, "warning", "ins_gyro_uncalibrated",
+                f"{dev.device}: the foot was still at the start but its gyro read "
+                f"{yaw_rate:.2f} deg/s about the vertical; left in, that turns the track by "
+                f"about {yaw_rate * 60:.0f} deg a minute. Set align_gyro_bias: true if the "
+                "wearer stands still at the start", agent=agent)
 
     def _to_building(self, position: np.ndarray, heading: float, cov: np.ndarray
                      ) -> tuple[np.ndarray, float, np.ndarray]:
