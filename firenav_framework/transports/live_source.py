@@ -69,6 +69,7 @@ class LiveSource(Source):
         self._stopping = threading.Event()
         self.link = self.make_link()
         self.recorder: RotatingRecorder | None = None
+        self._record_failed = False
         self.monitor = LinkMonitor(ctx.id, silent_after=params.silent_after,
                                    report_every=params.report_every, agents=params.device_agents)
 
@@ -115,7 +116,9 @@ class LiveSource(Source):
                     yield "diagnostics", self._link_diag("error", f"link lost: {exc}", True)
                     continue
                 if self.recorder is not None and arrivals:
-                    self._record(arrivals)
+                    failure = self._record(arrivals)
+                    if failure is not None:
+                        yield "diagnostics", failure
                 for t_us, native in arrivals:
                     frame = self.link.to_frame(t_us, native)
                     if frame is None:
@@ -139,14 +142,33 @@ class LiveSource(Source):
             if self.recorder is not None:
                 self.recorder.close()
 
-    def _record(self, arrivals: list[tuple[int, Any]]) -> None:
+    def _record(self, arrivals: list[tuple[int, Any]]) -> Diagnostic | None:
         """Write a batch and hand it to the operating system before any of its frames
-        is passed on: a killed process has logged every frame its pipeline saw."""
-        for t_us, native in arrivals:
-            item = self.link.record_item(native)
-            if item is not None:
-                self.recorder.write(t_us, item)
-        self.recorder.flush()
+        is passed on: a killed process has logged every frame its pipeline saw.
+
+        A recorder that fails (disk full, a frame its format cannot hold) does not stop
+        the link: the frames still go on, each unrecorded one is counted, and the first
+        failure of a run is reported.
+        """
+        written = 0
+        try:
+            for t_us, native in arrivals:
+                item = self.link.record_item(native)
+                if item is not None:
+                    self.recorder.write(t_us, item)
+                written += 1
+            self.recorder.flush()
+            return None
+        except Exception as exc:  # noqa: BLE001 - any writer error; the link must go on
+            # a failed flush may have lost the whole batch
+            self.ctx.count("frames_not_recorded", (len(arrivals) - written) or len(arrivals))
+            if self._record_failed:
+                return None
+            self._record_failed = True
+            return Diagnostic(t=clock.now(), component=self.ctx.id, level="error",
+                              code="recording_failed",
+                              text=f"{self.ctx.id}: recording failed ({type(exc).__name__}: "
+                                   f"{exc}); frames are still passed on", active=True)
 
     def _connect(self, was_up: bool | None) -> tuple[bool, Diagnostic | None]:
         try:

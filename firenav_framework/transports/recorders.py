@@ -23,6 +23,7 @@ Formats:
 """
 from __future__ import annotations
 
+import copy
 import datetime as _dt
 import os
 import re
@@ -186,6 +187,8 @@ class CanRecorder(RotatingRecorder):
             self._writer = can.Logger(str(path))
 
     def _write(self, t_us: int, item: can.Message) -> None:
+        if self.suffix != ".log":
+            item = _numbered_channel(item)
         self._writer.on_message_received(item)
 
     def _flush(self) -> None:
@@ -207,6 +210,24 @@ class CanRecorder(RotatingRecorder):
     def _fileno(self) -> int | None:
         fh = getattr(self._writer, "file", None)
         return fh.fileno() if fh is not None and not fh.closed else None
+
+
+#: Largest channel number the binary formats hold (BLF keeps it in an unsigned 16-bit
+#: field and writes it plus one).
+_MAX_CHANNEL = 0xFFFE
+
+
+def _numbered_channel(msg: can.Message) -> can.Message:
+    """``msg`` as ASC/BLF/TRC can write it: they store channel numbers, which python-can
+    takes from the trailing digits of the channel name ("can1" -> 1). A device named
+    with a large number ("test-8a2f...932916") would make BLF fail, so such a message is
+    written on the writer's default channel instead (the name is lost either way)."""
+    number = can.util.channel2int(msg.channel)
+    if number is None or 0 <= number <= _MAX_CHANNEL:
+        return msg
+    out = copy.copy(msg)
+    out.channel = None
+    return out
 
 
 class _PaddedAscWriter(can.ASCWriter):

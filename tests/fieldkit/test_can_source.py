@@ -141,3 +141,45 @@ def test_slcan_over_pyserial_loopback():
     frames = [link.to_frame(t, m) for t, m in got]
     assert [(f.channel, f.data) for f in frames] == FRAMES[:20]
     assert {f.device for f in frames} == {"slcan0"}
+
+
+@pytest.mark.parametrize("suffix", [".asc", ".blf", ".trc"])
+def test_a_device_named_with_a_large_number_is_recorded(tmp_path, suffix):
+    """Channel numbers come from a name's trailing digits; 'bench-932916' overflowed BLF's
+    16-bit field (the live source died on it)."""
+    from firenav_framework.transports.recorders import CanRecorder
+
+    rec = CanRecorder(tmp_path, "can", suffix=suffix)
+    sent = FRAMES[:20]
+    for k, (arb, data) in enumerate(sent):
+        t = 1_700_000_000.0 + 0.01 * k
+        rec.write(round(t * 1e6), can.Message(timestamp=t, arbitration_id=arb, data=data,
+                                              is_extended_id=False, channel="bench-932916"))
+    rec.close()
+    replayed, _ = _read_back(log_files(tmp_path, (suffix,))[0])
+    assert [(f.channel, f.data) for f in replayed] == sent
+
+
+def test_a_failing_recorder_does_not_stop_the_link(running, tmp_path):
+    channel = f"test-{uuid.uuid4().hex}"
+    src = running(CanBusSource, {"interface": "virtual", "channel": channel}, tmp_path,
+                  cid="can")
+    sender = can.Bus(interface="virtual", channel=channel)
+    try:
+        wait_for(lambda: src.source.link.bus is not None and src.source.recorder is not None,
+                 what="bus open")
+
+        def disk_full(t_us, item):
+            raise OSError(28, "No space left on device")
+
+        src.source.recorder.write = disk_full
+        for arb, data in FRAMES[:40]:
+            sender.send(can.Message(arbitration_id=arb, data=data, is_extended_id=False))
+        wait_for(lambda: len(src.frames()) >= 40, what="frames")
+    finally:
+        sender.shutdown()
+    src.stop()
+    assert [(f.channel, f.data) for f in src.frames()] == FRAMES[:40]
+    assert src.counts()["frames_not_recorded"] == 40
+    (diag,) = src.diagnostics("recording_failed")
+    assert "No space left" in diag.text and diag.level == "error"
