@@ -23,7 +23,7 @@ from firenav_framework.messages import ImuBlock
 from firenav_framework.sources.readers import ReadOptions, find_reader
 from firenav_framework.testing import make_component
 from firenav_plugins.sensors.foot_imu import FootImuSensor
-from firenav_plugins.sensors.imu_can import CanImuDecoder, encode_can_imu, load_imu_dbc
+from firenav_plugins.sensors.imu_can import encode_can_imu, load_imu_dbc
 from firenav_plugins.sensors.imu_frames import to_raw_frames
 from firenav_plugins.sensors.imu_mavlink import encode_mavlink_imu
 

@@ -27,7 +27,6 @@ being level).
 from __future__ import annotations
 
 import argparse
-import itertools
 import math
 import sys
 import time

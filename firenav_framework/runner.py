@@ -24,7 +24,7 @@ from typing import Any, TextIO
 from .bus import Bus, Fault, Subscription
 from .components import PIPELINE_DIR, Component, Context, Estimator, Source
 from .messages import Diagnostic, Message
-from .pipeline import ComponentSpec, PipelineSpec
+from .pipeline import PipelineSpec
 from .stats import RunStats
 from .timeline import Timeline
 from .tracks import Track, TrackStore

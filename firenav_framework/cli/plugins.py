@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import sys
 
 from ..plugin_docs import format_table, param_rows
 from ..registry import default_registry

@@ -57,7 +57,6 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
     # -- movement -------------------------------------------------------------------
     walkers: dict[str, Walker] = {}
     plans: dict[str, tuple] = {}
-    specs = {a.id: a for a in m.agents}
     for i, agent in enumerate(m.agents):
         if agent.follow is not None:
             continue

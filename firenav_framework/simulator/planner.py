@@ -18,14 +18,14 @@ step becomes one or more :class:`~.movement.Leg` objects:
   jamb, ``tag_height_m`` above the floor).
 
 Problems (unknown door, unreachable target, a ``via`` line through a wall) become a
-:class:`ConfigError` at the plan step's line in the scenario file.
+:class:`~firenav_framework.yaml_locations.ConfigError` at the plan step's line in the
+scenario file.
 """
 from __future__ import annotations
 
 import numpy as np
 from shapely.geometry import Point
 
-from ..yaml_locations import ConfigError
 from .geometry import RouteError, Router, polyline_length, walkable_region, wall_ring
 from .movement import Leg
 from .scenario import (AgentSpec, CompartmentalSearch, Scenario, Search, Stairs, Step, Stops,
