@@ -39,7 +39,7 @@ from firenav_framework.simulator import load_scenario, simulate  # noqa: E402
 from firenav_framework.simulator.mount import imu_kinematics  # noqa: E402
 from firenav_framework.simulator.scenario import load_scenario_text  # noqa: E402
 from firenav_framework.simulator.signal_stats import (quiet_displacement,  # noqa: E402
-                                                      stance_statistics)
+                                                      stance_statistics, true_runs)
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
     load_indoor_walk, load_vicon_trial)
 from firenav_plugins.estimators.zupt_ins import ZuptInsParams, eskf  # noqa: E402
@@ -204,8 +204,8 @@ def _stride_length_error(params: ZuptInsParams, t, imu, truth) -> float:
     """Median INS stride length error [%] between the middles of consecutive ZUPT runs."""
     res, pos = run(params, t, imu)
     zv = res.states[:, eskf.O_ZV] > 0.5
-    edges = np.diff(np.concatenate([[0], zv.astype(int), [0]]))
-    mid = (np.flatnonzero(edges == 1) + np.flatnonzero(edges == -1)) // 2
+    starts, ends = true_runs(zv)
+    mid = (starts + ends) // 2
     d_ins = np.linalg.norm(np.diff(pos[mid, :2], axis=0), axis=1)
     d_true = np.linalg.norm(np.diff(truth[mid, :2], axis=0), axis=1)
     ok = (d_true > 0.5) & (d_true < 2.5)

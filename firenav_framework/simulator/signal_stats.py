@@ -70,6 +70,12 @@ class StanceStatistics:
         return out
 
 
+def true_runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end (exclusive) index of every run of True in a boolean array."""
+    edges = np.diff(np.concatenate([[0], np.asarray(mask, bool).astype(np.int8), [0]]))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
 def _valleys(rate_dps: np.ndarray, fs: float, swing_dps: float) -> np.ndarray:
     """Sample index of the rate minimum of every stance between two swings."""
     coarse = np.log10(uniform_filter1d(rate_dps, max(1, int(0.2 * fs))) + 1.0)
@@ -88,10 +94,8 @@ def _valleys(rate_dps: np.ndarray, fs: float, swing_dps: float) -> np.ndarray:
 
 def _standing(rate_dps: np.ndarray, gyro_dps: np.ndarray, fs: float) -> np.ndarray:
     quiet = uniform_filter1d((rate_dps > 5.0).astype(float), max(1, int(0.5 * fs))) == 0
-    edges = np.diff(np.concatenate([[0], quiet.astype(int), [0]]))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     out = []
-    for a, b in zip(starts, ends):
+    for a, b in zip(*true_runs(quiet)):
         if b - a >= 1.5 * fs:
             x = gyro_dps[a:b] - gyro_dps[a:b].mean(axis=0)
             out.append(float(np.sqrt(np.mean(np.sum(x * x, axis=1)))))
@@ -160,8 +164,8 @@ def quiet_displacement(t: np.ndarray, gyro: np.ndarray, position: np.ndarray,
     fs = 1.0 / float(np.median(np.diff(t)))
     rate = uniform_filter1d(np.degrees(np.linalg.norm(np.asarray(gyro, float), axis=1)),
                             max(1, int(round(0.025 * fs))))
-    edges = np.diff(np.concatenate([[0], (rate < below_dps).astype(int), [0]]))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    starts, ends = true_runs(rate < below_dps)
+    ends = ends - 1                                   # last quiet sample
     keep = (ends - starts >= 0.04 * fs) & (ends - starts <= fs)
     starts, ends = starts[keep], ends[keep]
     return np.linalg.norm(position[ends, :2] - position[starts, :2], axis=1)
