@@ -40,7 +40,7 @@ from firenav_framework.messages import Message, Tick
 from .door_heading import HeadingWindow, door_heading_measurement
 from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter, rot2, wrap
 from .flight_tracker import FlightTracker
-from .gait import GaitClassifier, GaitConfig, StrideGait, count_stairs
+from .gait import STAIR_GAITS, GaitClassifier, GaitConfig, StrideGait, count_stairs
 from .height import Flight, StairFlights, snap_levels
 from .history import StrideHistory
 from .params import PdrEkfParams
@@ -193,7 +193,8 @@ class PdrEkf(Estimator):
         and add it to the eq. 2 input of the next update, the history and the heading
         window."""
         delta = np.asarray(msg.delta, float)
-        gait = self._classify(st, msg, delta, msg.heading - 0.5 * msg.dheading)
+        now = self._now(st)
+        gait = self._classify(st, msg, delta, msg.heading - 0.5 * msg.dheading, now)
         R = rot2(st.psi0)
         d = R @ delta[:2]
         cov = R @ np.asarray(msg.cov, float)[:2, :2] @ R.T
@@ -201,9 +202,9 @@ class PdrEkf(Estimator):
             cov = cov + np.eye(2) * max(self.params.stride_noise ** 2, MIN_STRIDE_VAR)
             st.walk_dir = math.atan2(d[1], d[0])
         if st.flights is not None:
-            label, dz, var_z, level = self._flight_height(msg.agent, st, gait, d, msg.t)
+            label, dz, var_z, level = self._flight_height(msg.agent, st, gait, d, now, msg.t)
         else:
-            label, dz, var_z, level = gait.gait, *self._counted_height(st, gait, msg), None
+            label, dz, var_z, level = gait.gait, *self._counted_height(st, gait, msg, now), None
         st.acc_d += d
         st.acc_cov += cov
         st.acc_dz += dz
@@ -217,7 +218,7 @@ class PdrEkf(Estimator):
         st.history.add(start, msg.t, d, dz, cov, label)
         st.t_odo = msg.t
         self.ctx.count(f"strides_{label}")
-        if st.flights is None and label in ("SC", "SDF", "SDB"):
+        if st.flights is None and label in STAIR_GAITS:
             st.stair_run += 1
         elif st.flights is None and label == "FW":
             st.snap = st.snap or st.stair_run > 0
@@ -231,22 +232,23 @@ class PdrEkf(Estimator):
         xy = x[:2] + x[I_LAMBDA] * (rot2(x[I_DTHETA]) @ st.acc_d)
         return np.array([xy[0], xy[1], x[I_Z] + st.acc_dz])
 
-    def _classify(self, st: _Agent, msg: Odometry, delta: np.ndarray, foot: float) -> StrideGait:
+    def _classify(self, st: _Agent, msg: Odometry, delta: np.ndarray, foot: float,
+                  now: np.ndarray) -> StrideGait:
         near = (self.params.stair_zone is None or not len(self._stairs)
                 or (st.flights is not None and st.flights.on_stairs)
-                or self._stairs.near(self._now(st)) is not None)
+                or self._stairs.near(now) is not None)
         stride = st.gait.classify(delta, foot, near)
         if self.params.gait_source == "odometry" and msg.motion in MOTION_GAITS:
             return StrideGait(MOTION_GAITS[msg.motion], float(delta[2]), stride.d)
         return stride
 
     def _flight_height(self, agent: str, st: _Agent, gait: StrideGait, d: np.ndarray,
-                       t: float) -> tuple[str, float, float, float | None]:
+                       now: np.ndarray, t: float) -> tuple[str, float, float, float | None]:
         """Gait class, height change [m], its variance [m^2] and the level [m] the height
-        is set to (or None) of one stride, from the building's flights (:mod:`.flight_tracker`)."""
+        is set to (or None) of one stride ending at ``t`` [s] that starts at ``now``
+        (:meth:`_now`), from the building's flights (:mod:`.flight_tracker`)."""
         x = st.filt.x
         d_b = x[I_LAMBDA] * (rot2(x[I_DTHETA]) @ d)
-        now = self._now(st)
         step = st.flights.stride(gait.gait, gait.dz, d_b, now[:2] + d_b, float(now[2]), t)
         label = "FW" if step.vetoed else gait.gait
         if step.vetoed:
@@ -260,7 +262,8 @@ class PdrEkf(Estimator):
         var = (step.stairs * self.params.stair_sigma) ** 2
         return label, step.z - float(now[2]), var, step.z if step.settled else None
 
-    def _counted_height(self, st: _Agent, gait: StrideGait, msg: Odometry) -> tuple[float, float]:
+    def _counted_height(self, st: _Agent, gait: StrideGait, msg: Odometry,
+                        now: np.ndarray) -> tuple[float, float]:
         """Height change [m] and its variance [m^2] of one stride without the building's
         flights: the INS's, or the paper's counted stairs (retracted when the next stride
         does not confirm them)."""
@@ -268,8 +271,8 @@ class PdrEkf(Estimator):
         if p.height_source == "ins":
             return gait.dz, float(msg.cov[2, 2])
         dz = var = 0.0
-        if gait.gait in ("SC", "SDF", "SDB"):
-            rise = (self._stairs.step_rise_at(self._now(st)) if p.step_height_from_building
+        if gait.gait in STAIR_GAITS:
+            rise = (self._stairs.step_rise_at(now) if p.step_height_from_building
                     else None) or p.step_height
             n = count_stairs(gait.dz, rise, p.max_stairs_per_stride)
             dz, var = n * rise, (n * p.stair_sigma) ** 2

@@ -252,7 +252,7 @@ class FlightTracker:
         f = run.flight
         if (run.stairs >= self.cfg.complete_fraction * f.steps
                 and run.rise >= self.cfg.rise_fraction * f.rise):
-            far = f.z_hi if run.sign > 0 else f.z_lo
+            far = f.entry_level(-run.sign)
             self.at_end = (_End(f.stair, far, run.sign)
                            if self.flights.is_landing(f.stair, far) else None)
             return FlightStep(far, settled=True, ended="complete", flight=f)
@@ -268,7 +268,7 @@ class FlightTracker:
             f = self.flights.entry(xy, z, sign, d, self.cfg.axis_cos, self.cfg.min_treads)
         if f is None:
             return FlightStep(z, vetoed=True)
-        self.run = _Run(f, sign, f.end(sign)[1], stairs=self._count(f, dz, float(np.hypot(*d))),
+        self.run = _Run(f, sign, f.entry_level(sign), stairs=self._count(f, dz, float(np.hypot(*d))),
                         rise=max(0.0, sign * dz), way=d.astype(float), came_from=self.at_end)
         self.at_end = None
         return FlightStep(self.run.height(), sign * self.run.stairs, True, entered=True,

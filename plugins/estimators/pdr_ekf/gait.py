@@ -36,10 +36,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["GAITS", "GaitConfig", "StrideGait", "GaitClassifier", "count_stairs"]
+__all__ = ["GAITS", "STAIR_GAITS", "GaitConfig", "StrideGait", "GaitClassifier", "count_stairs"]
 
 #: Gait classes: still, forward walking, stair climbing, stair descent forward / backward.
 GAITS = ("still", "FW", "SC", "SDF", "SDB")
+#: The gait classes that walk stairs.
+STAIR_GAITS = ("SC", "SDF", "SDB")
 
 
 @dataclass(frozen=True)

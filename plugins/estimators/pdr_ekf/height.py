@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -48,9 +49,9 @@ class Flight:
         """Height of one stair [m]."""
         return self.rise / self.steps
 
-    @property
+    @cached_property
     def length(self) -> float:
-        """Horizontal length of the walking line [m]."""
+        """Horizontal length of the walking line [m] (asked for every stride on it)."""
         return float(np.sum(np.linalg.norm(np.diff(self.path, axis=0), axis=1)))
 
     @property
@@ -58,10 +59,10 @@ class Flight:
         """Horizontal going of one stair along the walking line [m]."""
         return self.length / self.steps
 
-    def end(self, sign: int) -> tuple[np.ndarray, float]:
-        """Horizontal position (2,) [m] and level [m] of the end a walk *enters* by when
-        climbing (``sign`` +1: the lower end) or descending (-1: the upper end)."""
-        return (self.path[0], self.z_lo) if sign > 0 else (self.path[-1], self.z_hi)
+    def entry_level(self, sign: int) -> float:
+        """Level [m] of the end a walk *enters* by when climbing (``sign`` +1: the lower
+        end) or descending (-1: the upper end)."""
+        return self.z_lo if sign > 0 else self.z_hi
 
     def locate(self, xy: np.ndarray) -> tuple[float, np.ndarray]:
         """Horizontal distance [m] of ``xy`` (2,) from the walking line, and the climb
@@ -137,7 +138,7 @@ class StairFlights:
         """The flight of ``stair`` a walk going up (``sign`` +1) or down (-1) enters at
         ``level`` [m], or None."""
         for f in self.flights:
-            if f.stair == stair and abs(f.end(sign)[1] - level) < 1e-6:
+            if f.stair == stair and abs(f.entry_level(sign) - level) < 1e-6:
                 return f
         return None
 
@@ -162,8 +163,7 @@ class StairFlights:
         length = float(np.hypot(*d))
         best, found = math.inf, None
         for f in self.flights:
-            _, level = f.end(sign)
-            if abs(z - level) > 0.5 * f.rise:
+            if abs(z - f.entry_level(sign)) > 0.5 * f.rise:
                 continue
             dist, axis = f.locate(xy)
             if dist > self._reach(f):
