@@ -19,8 +19,8 @@ say *whether* the agent walks a flight, not exactly how high:
   on a mid-storey landing a run of the stair completed onto, on in the same direction
   (a landing has no other way on, and the estimated heading is least trustworthy right
   there, after the turn onto it; the way back needs the building's geometry, as the
-  INS often shows a small false climb on the level strides after a descent), or within ``zone`` metres walked after a read of the tag at the stair's bottom or
-  top (:meth:`FlightTracker.at_stair_end`; the estimate may be metres and tens of
+  INS often shows a small false climb on the level strides after a descent), or
+  within ``zone`` metres walked after a read of the tag at the stair's bottom or top (:meth:`FlightTracker.at_stair_end`; the estimate may be metres and tens of
   degrees off when the tag relocates it). The read arrives seconds late (the reader
   closes a pass after it), so the last few strides off any flight since the read are
   walked again from that end, those whose INS height moves ``weak_rise`` of a stair
@@ -261,6 +261,8 @@ class FlightTracker:
 
     def _enter(self, sign: int, dz: float, d: np.ndarray, xy: np.ndarray, z: float
                ) -> FlightStep:
+        # before the level-stride return on purpose: a level stride, too, uses up the
+        # distance that may still be walked from a stair end since its tag was read
         f = self._from_end(sign, z, float(np.hypot(*d)))
         if sign == 0:
             return FlightStep(z)
