@@ -26,6 +26,10 @@ class AnchorSite:
         """Index of the floor whose level is nearest below/above height ``z`` [m]."""
         return bisect.bisect_right(self._level_mids, z)
 
+    def floor_at(self, z: float):
+        """The floor (``Floor``) whose level is nearest below/above height ``z`` [m]."""
+        return self.building.floors[self.floor_index(z)]
+
     def usable_anchor(self, msg: Range, count: Callable[[str], None]) -> str | None:
         """The anchor end of a usable range, or None after counting why it is not usable."""
         anchor = (msg.b if msg.b in self.positions

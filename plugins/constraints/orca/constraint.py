@@ -205,7 +205,6 @@ class OrcaConstraint(Constraint):
 
     def start(self) -> None:
         self._site = AnchorSite(self.ctx.building)
-        self._building = self.ctx.building
         self._no_team = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
 
     def reset(self, agent: str) -> None:
@@ -304,7 +303,7 @@ class OrcaConstraint(Constraint):
         if not ranges and p.door_needs_range:
             self.ctx.count("orca_door_no_range")
             return None
-        tag_z = self._building.floors[floor_idx].z + p.tag_height
+        tag_z = self._site.building.floors[floor_idx].z + p.tag_height
         k = doors.choose(pos, crossing, move, seg, ranges, tag_z, p.door_search_radius,
                          p.door_line_tolerance)
         if k is None:
@@ -331,7 +330,7 @@ class OrcaConstraint(Constraint):
         # track itself goes through the door.
         end = door + rest
         if grid.blocked(door, end, self.params.radius) or \
-                self._building.floors[floor_idx].crosses_wall(pos[None], end[None])[0]:
+                self._site.building.floors[floor_idx].crosses_wall(pos[None], end[None])[0]:
             end = door.copy()
         return StepCorrection(position=_with_z(end, step),
                               update=Rigid2D.translation(door - crossing), jump=jump,
@@ -340,7 +339,7 @@ class OrcaConstraint(Constraint):
     def _door_table(self, floor_idx: int) -> DoorTable:
         doors = self._doors.get(floor_idx)
         if doors is None:
-            doors = self._doors[floor_idx] = DoorTable(self._building.floors[floor_idx])
+            doors = self._doors[floor_idx] = DoorTable(self._site.building.floors[floor_idx])
         return doors
 
     def _turning(self, me: _Agent, step: OdometryStep) -> bool:
@@ -376,7 +375,7 @@ class OrcaConstraint(Constraint):
     def _grid(self, floor_idx: int) -> WallGrid:
         grid = self._grids.get(floor_idx)
         if grid is None:
-            grid = self._grids[floor_idx] = WallGrid(self._building.floors[floor_idx],
+            grid = self._grids[floor_idx] = WallGrid(self._site.building.floors[floor_idx],
                                                      max_agents=MAX_TEAM)
         return grid
 

@@ -110,7 +110,7 @@ class AnchorRangeConstraint(Constraint):
             due.append(me.pending.popleft())
         if not due:
             return None
-        floor = self._site.building.floors[self._site.floor_index(step.prev[2])]
+        floor = self._site.floor_at(step.prev[2])
         tag_z = floor.z + p.tag_height
         shift = np.zeros(2)
         for t_r, anchor, r, sigma in due:

@@ -28,7 +28,6 @@ once and never counted twice. After a correction the straight run starts afresh.
 """
 from __future__ import annotations
 
-import bisect
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -38,6 +37,7 @@ import numpy as np
 from firenav_framework import Constraint, Params, PerAgent, param
 from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, StepCorrection
 
+from .anchors import AnchorSite
 from .turns import TurnHistory
 
 __all__ = ["WallFollowConstraint", "wall_alongside"]
@@ -120,12 +120,10 @@ class WallFollowConstraint(Constraint):
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
         self.runs: PerAgent[_Run] = PerAgent(lambda agent: _Run())
+        self._site: AnchorSite | None = None
 
     def start(self) -> None:
-        building = self.ctx.building
-        self._floors = building.floors
-        levels = [f.z for f in building.floors]
-        self._level_mids = [(a + b) / 2 for a, b in zip(levels, levels[1:])]
+        self._site = AnchorSite(self.ctx.building)
 
     def reset(self, agent: str) -> None:
         self.runs.reset(agent)
@@ -152,7 +150,7 @@ class WallFollowConstraint(Constraint):
             # not straight (yet): keep the run as long as a straight tail of it
             self._trim(run, p.follow_distance)
             return None
-        floor = self._floors[self._floor_index(step.prev[2])]
+        floor = self._site.floor_at(step.prev[2])
         near = floor.walls_near(0.5 * (a + b), p.follow_range + 0.5 * n)
         found = wall_alongside(a, b, floor.walls[near], p.follow_range, p.max_angle)
         if found is None or abs(found[0]) < p.min_angle:
@@ -180,7 +178,4 @@ class WallFollowConstraint(Constraint):
         run.ins.clear()
         run.ins.append(ins)
         run.length = 0.0
-
-    def _floor_index(self, z: float) -> int:
-        return bisect.bisect_right(self._level_mids, z)
 
