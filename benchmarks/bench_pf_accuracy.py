@@ -156,6 +156,12 @@ def ins_overrides(area: str) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- map error
+def truth_at(track, truth) -> np.ndarray:
+    """True horizontal position (N, 2) [m] at each estimate time of ``track`` (held at the
+    ends of the truth)."""
+    return np.column_stack([np.interp(track.t, truth.t, truth.position[:, i]) for i in (0, 1)])
+
+
 def alarms(track) -> np.ndarray:
     """Times at which the estimate turned untrusted after having been trusted (the
     ``map_error`` diagnostic of the particle filter, Sec. V-E)."""
@@ -169,10 +175,9 @@ def map_error_figures(moved: Cell, correct: Cell | None, building, room_id: str 
     fired, elsewhere, recovered, err_after, quiet_max_err = 0, 0, 0, [], []
     for track, truth in moved.tracks:
         t = track.t
-        tx = np.interp(t, truth.t, truth.position[:, 0])
-        ty = np.interp(t, truth.t, truth.position[:, 1])
-        err = np.hypot(track.position[:, 0] - tx, track.position[:, 1] - ty)
-        in_zone = shapely.contains_xy(zone, tx, ty)     # in the room or at its door
+        true_xy = truth_at(track, truth)
+        err = np.hypot(*(track.position[:, :2] - true_xy).T)
+        in_zone = shapely.contains_xy(zone, *true_xy.T)     # in the room or at its door
         if not in_zone.any():
             continue
         first_in, last_in = t[in_zone][0], t[in_zone][-1]
@@ -198,10 +203,15 @@ def map_error_figures(moved: Cell, correct: Cell | None, building, room_id: str 
 
 
 # ----------------------------------------------------------------------------- figures
-def plot_curves(cells: dict, ins: Cell, area: str, init: str, out: Path) -> Path:
+def _plt():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_curves(cells: dict, ins: Cell, area: str, init: str, out: Path) -> Path:
+    plt = _plt()
     grid = np.arange(0.0, 800.0, 2.0)
     fig, ax = plt.subplots(figsize=(8, 4))
     for name, cell in cells.items():
@@ -222,13 +232,9 @@ def plot_curves(cells: dict, ins: Cell, area: str, init: str, out: Path) -> Path
 
 def plot_variance(cell: Cell, out: Path) -> Path:
     """Fig. 9 (a): estimated variance vs squared error over one moved-door run."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _plt()
     track, truth = cell.tracks[0]
-    tx = np.interp(track.t, truth.t, truth.position[:, 0])
-    ty = np.interp(track.t, truth.t, truth.position[:, 1])
-    err2 = (track.position[:, 0] - tx) ** 2 + (track.position[:, 1] - ty) ** 2
+    err2 = np.sum((track.position[:, :2] - truth_at(track, truth)) ** 2, axis=1)
     var = track.cov[:, 0, 0] + track.cov[:, 1, 1]
     fig, ax = plt.subplots(figsize=(8, 3.5))
     t = track.t - track.t[0]

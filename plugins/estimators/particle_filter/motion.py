@@ -12,8 +12,9 @@ as ``n = dt / period`` updates of the paper's filter with the motion spread even
 
 which equals the paper's noise exactly at its own rate and the same accumulated
 noise at any other rate. Particles with a ``yaw_rate`` (an uncalibrated yaw gyro
-bias turns the INS frame steadily) also turn their frame rotation by it. An increment with ``dt = 0`` (the estimator passes the
-time spent moving: see its ``noise_while_still``) adds no noise.
+bias turns the INS frame steadily) also turn their frame rotation by it. An
+increment with ``dt = 0`` (the estimator passes the time spent moving: see its
+``noise_while_still``) adds no noise.
 """
 from __future__ import annotations
 
