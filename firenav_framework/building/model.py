@@ -11,6 +11,7 @@ particle filter's inner loop (:meth:`Floor.crosses_wall`) is one compiled pass.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -435,15 +436,24 @@ class Building:
                              f"not {i}")
         return self.floors[i]
 
+    @cached_property
+    def _level_mids(self) -> list[float]:
+        """Heights [m] half way between consecutive floor levels (floors are fixed once
+        the building is built)."""
+        levels = [f.z for f in self.floors]
+        return [(a + b) / 2 for a, b in zip(levels, levels[1:])]
+
     def floor_of_z(self, z: np.ndarray | float) -> np.ndarray | int:
         """Floor index nearest to height ``z`` [m] (switches half way between levels).
 
-        Vectorised: an array in gives an int array out; a scalar gives an int.
+        Vectorised: an array in gives an int array out; a scalar gives an int (without
+        building arrays: estimators ask once per step).
         """
-        levels = np.array([f.z for f in self.floors])
-        mids = (levels[1:] + levels[:-1]) / 2
-        out = np.searchsorted(mids, np.asarray(z, dtype=float), side="right")
-        return int(out) if np.ndim(out) == 0 else out.astype(np.int64)
+        if np.ndim(z) == 0:
+            return bisect.bisect_right(self._level_mids, float(z))
+        out = np.searchsorted(np.asarray(self._level_mids, float),
+                              np.asarray(z, dtype=float), side="right")
+        return out.astype(np.int64)
 
     @property
     def doors(self) -> list[Door]:

@@ -1,7 +1,6 @@
 """The building's fixed UWB anchors and floor levels, as the ORCA-family constraints see them."""
 from __future__ import annotations
 
-import bisect
 import math
 from typing import Callable
 
@@ -19,12 +18,10 @@ class AnchorSite:
         self.building = building
         self.positions: dict[str, np.ndarray] = {
             a.id: np.asarray(a.position, float) for a in building.anchors}
-        levels = [f.z for f in building.floors]
-        self._level_mids = [(a + b) / 2 for a, b in zip(levels, levels[1:])]
 
     def floor_index(self, z: float) -> int:
         """Index of the floor whose level is nearest below/above height ``z`` [m]."""
-        return bisect.bisect_right(self._level_mids, z)
+        return self.building.floor_of_z(z)
 
     def floor_at(self, z: float):
         """The floor (``Floor``) whose level is nearest below/above height ``z`` [m]."""
