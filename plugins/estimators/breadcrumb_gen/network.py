@@ -50,7 +50,8 @@ from .measurements import (range_blocks, range_direction, range_linearised,
 __all__ = ["GeneralizedElectricalNetwork", "KirchhoffSystem", "batch_blue",
            "SingularNetworkError"]
 
-# edge kinds: relative position, range, marginal, rotated position, linear
+# edge kinds: relative position, range, marginal, rotated position, linear (the order of
+# GeneralizedElectricalNetwork._table)
 _POS, _RNG, _MRG, _ROT, _LIN = 0, 1, 2, 3, 4
 
 
@@ -117,6 +118,17 @@ class _Linear:
     eta: np.ndarray
     alive: bool = True
     applied: bool = False
+
+
+def _information(what: str, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(information ``cov^-1``, symmetrised ``cov``) of a finite covariance, or a clear
+    error when it is not positive definite."""
+    cov = 0.5 * (cov + cov.T)
+    try:
+        info = np.linalg.inv(np.linalg.cholesky(cov))
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{what}: covariance is not positive definite") from None
+    return info.T @ info, cov
 
 
 class GeneralizedElectricalNetwork:
@@ -278,13 +290,7 @@ class GeneralizedElectricalNetwork:
             raise ValueError(f"linear edge over {list(nodes)!r} is not finite")
         if all(n in self._anchor for n in ids):
             raise ValueError(f"linear edge over anchors only: {list(nodes)!r}")
-        cov = 0.5 * (cov + cov.T)
-        try:
-            w = np.linalg.inv(np.linalg.cholesky(cov))
-        except np.linalg.LinAlgError:
-            raise ValueError(f"linear edge over {list(nodes)!r}: covariance is not positive "
-                             "definite") from None
-        w = w.T @ w
+        w, cov = _information(f"linear edge over {list(nodes)!r}", cov)
         fid = len(self._lin)
         self._lin.append(_Linear(np.asarray(ids, np.int64), J, cov, y, J.T @ w @ J,
                                  J.T @ w @ y))
@@ -302,12 +308,7 @@ class GeneralizedElectricalNetwork:
                              f"{self.d}), got {z.shape} and {cov.shape}")
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(cov))):
             raise ValueError(f"{what} is not finite")
-        cov = 0.5 * (cov + cov.T)
-        try:
-            info = np.linalg.inv(np.linalg.cholesky(cov))
-        except np.linalg.LinAlgError:
-            raise ValueError(f"{what}: covariance is not positive definite") from None
-        return info.T @ info, cov
+        return _information(what, cov)
 
     def add_range(self, i: Hashable, j: Hashable, r: float, var: float,
                   offset: Sequence[float] | None = None) -> int:
@@ -376,7 +377,7 @@ class GeneralizedElectricalNetwork:
         queue = [(kind, fid)]
         while queue:
             kind, fid = queue.pop(0)
-            if not self._is_live(kind, fid) or self._is_applied(kind, fid):
+            if not self._flag(kind, fid, "alive") or self._flag(kind, fid, "applied"):
                 continue
             nodes = self._edge_nodes(kind, fid)
             loose = [n for n in nodes if not self._localised[n]]
@@ -423,7 +424,7 @@ class GeneralizedElectricalNetwork:
                 parents.append(n)
                 gains.append(-inv @ blk)
         self.solver.border(new, parents, gains, z, inv @ R @ inv.T)
-        self._set_applied(kind, fid)
+        self._set_flag(kind, fid, "applied", True)
         self._localised[new] = True
 
     def _psi_estimates(self, heading_nodes: np.ndarray) -> np.ndarray:
@@ -438,39 +439,23 @@ class GeneralizedElectricalNetwork:
                 out[k] = self._anchor[int(n)][0]
         return out
 
-    def _set_applied(self, kind: int, fid: int) -> None:
-        if kind == _POS:
-            self._pos.applied[fid] = True
-        elif kind == _RNG:
-            self._rng.applied[fid] = True
-        elif kind == _ROT:
-            self._rot.applied[fid] = True
-        elif kind == _LIN:
-            self._lin[fid].applied = True
+    def _table(self, kind: int) -> _Columns | list:
+        """Where edges of ``kind`` live: a column table or a list of dense edges."""
+        return (self._pos, self._rng, self._mrg, self._rot, self._lin)[kind]
+
+    def _flag(self, kind: int, fid: int, name: str) -> bool:
+        """The ``alive`` or ``applied`` flag of edge ``fid`` of ``kind``."""
+        table = self._table(kind)
+        if isinstance(table, list):
+            return getattr(table[fid], name)
+        return bool(getattr(table, name)[fid])
+
+    def _set_flag(self, kind: int, fid: int, name: str, value: bool) -> None:
+        table = self._table(kind)
+        if isinstance(table, list):
+            setattr(table[fid], name, value)
         else:
-            self._mrg[fid].applied = True
-
-    def _is_live(self, kind: int, fid: int) -> bool:
-        if kind == _POS:
-            return bool(self._pos.alive[fid])
-        if kind == _RNG:
-            return bool(self._rng.alive[fid])
-        if kind == _ROT:
-            return bool(self._rot.alive[fid])
-        if kind == _LIN:
-            return self._lin[fid].alive
-        return self._mrg[fid].alive
-
-    def _is_applied(self, kind: int, fid: int) -> bool:
-        if kind == _POS:
-            return bool(self._pos.applied[fid])
-        if kind == _RNG:
-            return bool(self._rng.applied[fid])
-        if kind == _ROT:
-            return bool(self._rot.applied[fid])
-        if kind == _LIN:
-            return self._lin[fid].applied
-        return self._mrg[fid].applied
+            getattr(table, name)[fid] = value
 
     def _apply(self, kind: int, fid: int) -> None:
         """Hand an edge whose nodes are all localised to the solver (linearising ranges)."""
@@ -479,7 +464,7 @@ class GeneralizedElectricalNetwork:
             return
         if kind == _ROT:
             self._rot.lin[fid] = self._psi_estimates(self._rot.h[fid:fid + 1])[0]
-        self._set_applied(kind, fid)
+        self._set_flag(kind, fid, "applied", True)
         nodes, J, R, y = self._linear_form(kind, fid)
         if nodes:
             self._defer(nodes, J, R, y)
@@ -626,8 +611,8 @@ class GeneralizedElectricalNetwork:
         if nid in self._anchor:
             raise ValueError(f"{key!r} is an anchor and cannot be deleted")
         self._flush()
-        edges = [(k, f) for k, f in self._edges.pop(nid, []) if self._is_live(k, f)]
-        applied = [(k, f) for k, f in edges if self._is_applied(k, f)]
+        edges = [(k, f) for k, f in self._edges.pop(nid, []) if self._flag(k, f, "alive")]
+        applied = [(k, f) for k, f in edges if self._flag(k, f, "applied")]
         self.dropped_edges += len(edges) - len(applied)
         for k, f in edges:
             self._kill(k, f)
@@ -662,16 +647,7 @@ class GeneralizedElectricalNetwork:
             self._edges[n].append((_MRG, fid))
 
     def _kill(self, kind: int, fid: int) -> None:
-        if kind == _POS:
-            self._pos.alive[fid] = False
-        elif kind == _RNG:
-            self._rng.alive[fid] = False
-        elif kind == _ROT:
-            self._rot.alive[fid] = False
-        elif kind == _LIN:
-            self._lin[fid].alive = False
-        else:
-            self._mrg[fid].alive = False
+        self._set_flag(kind, fid, "alive", False)
         for n in self._edge_nodes(kind, fid):
             lst = self._edges.get(n)
             if lst is not None and (kind, fid) in lst:
