@@ -380,7 +380,8 @@ class BreadcrumbGen(Estimator):
                     self._apply_radio(ev, agent, st)
 
     def _state_at(self, st: _Agent, t: float) -> _State | None:
-        best = min(st.states, key=lambda s: abs(s.t - t))
+        """The state nearest ``t``, or None when it is more than ``time_match`` away."""
+        best = _nearest_state(st, t)
         return best if abs(best.t - t) <= self.params.time_match else None
 
     def _node_of(self, node: str, t: float) -> tuple[str, float, float] | None:
@@ -516,7 +517,7 @@ class BreadcrumbGen(Estimator):
     def _apply_drop(self, msg: BreadcrumbDrop, st: _Agent) -> None:
         s = self._state_at(st, msg.t)
         if s is None:
-            s = min(st.states, key=lambda q: abs(q.t - msg.t))
+            s = _nearest_state(st, msg.t)
             self.ctx.count("drop_time_unmatched")
         v = self.params.drop_sigma ** 2 + (s.speed * (s.t - msg.t)) ** 2
         self.gen.add_node(msg.node_id)
@@ -542,24 +543,29 @@ class BreadcrumbGen(Estimator):
     # -- output ---------------------------------------------------------------------------------
     def _publish_pose(self, msg: Odometry, st: _Agent) -> None:
         state = st.states[-1]
-        x = self.gen.estimates_of([state.key])[0]
-        c = self.gen.covariances_of([state.key])[0]
+        nodes = [state.key] if state.heading is None else [state.key, state.heading]
+        x = self.gen.estimates_of(nodes)                 # one query for position and heading
+        c = self.gen.covariances_of(nodes)
         cov = np.zeros((4, 4))
-        cov[:3, :3] = c
+        cov[:3, :3] = c[0]
         heading = msg.heading + self.params.odometry_heading.get(msg.agent, 0.0)
         if state.heading is None:
             cov[3, 3] = st.heading_var
         else:
-            heading += float(self.gen.estimates_of([state.heading])[0, 0])
-            cov[3, 3] = float(self.gen.covariances_of([state.heading])[0, 0, 0])
+            heading += float(x[1, 0])
+            cov[3, 3] = float(c[1, 0, 0])
         self.ctx.publish("pose", PoseEstimate(t=msg.t, agent=msg.agent, device=msg.device,
-                                              position=x, heading=_wrap(heading), cov=cov))
+                                              position=x[0], heading=_wrap(heading), cov=cov))
 
     def _publish_touched(self, t: float) -> None:
-        crumbs = {node: bc for bc, node in self._crumbs.items()}
+        crumbs = self._crumb_ids()
         nodes = [n for n in self._touched if n in crumbs]
         self._touched.clear()
         self._publish_crumbs(t, nodes, crumbs)
+
+    def _crumb_ids(self) -> dict[str, str]:
+        """Current graph node -> breadcrumb id (the inverse of ``_crumbs``)."""
+        return {node: bc for bc, node in self._crumbs.items()}
 
     def _publish_crumbs(self, t: float, nodes: list[str], crumbs: dict[str, str]) -> None:
         if not nodes:
@@ -578,7 +584,7 @@ class BreadcrumbGen(Estimator):
         for agent, st in self._agents.items():
             self._release(agent, st, final=True)
         t = max((st.states[-1].t for st in self._agents.values() if st.states), default=0.0)
-        crumbs = {node: bc for bc, node in self._crumbs.items()}
+        crumbs = self._crumb_ids()
         self._publish_crumbs(t, list(crumbs), crumbs)
         self.ctx.count("graph_rebuilds", self.gen.solver.rebuilds)
 
@@ -587,6 +593,10 @@ class BreadcrumbGen(Estimator):
         if code not in st.warned:
             st.warned.add(code)
             self.ctx.diagnose(t, "warning", code, text, agent=agent)
+
+
+def _nearest_state(st: _Agent, t: float) -> _State:
+    return min(st.states, key=lambda s: abs(s.t - t))
 
 
 def _wrap(angle: float) -> float:
