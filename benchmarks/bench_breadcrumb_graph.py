@@ -176,6 +176,15 @@ def add_odometry(gen: GeneralizedElectricalNetwork, up: Update, heading_states: 
     return [up.key, h]
 
 
+def add_encounters_and_drop(gen: GeneralizedElectricalNetwork, up: Update) -> None:
+    """The update's encounters (zero relative positions) and its breadcrumb drop, if any."""
+    for other in up.encounters:
+        gen.add_relative_position(up.key, other, np.zeros(3), ENC_COV)
+    if up.drop:
+        gen.add_node(up.drop)
+        gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
+
+
 def run_ours(updates: list[Update], linear_only: bool = False, heading_states: bool = False
              ) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
     """Our incremental GEN, one timed update per firefighter step (``linear_only``: the
@@ -190,11 +199,7 @@ def run_ours(updates: list[Update], linear_only: bool = False, heading_states: b
             if up.ranges and not linear_only:
                 others, r, var = zip(*up.ranges)
                 gen.add_ranges([up.key] * len(r), others, r, var)
-            for other in up.encounters:
-                gen.add_relative_position(up.key, other, np.zeros(3), ENC_COV)
-            if up.drop:
-                gen.add_node(up.drop)
-                gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
+            add_encounters_and_drop(gen, up)
         gen.relinearize()
         changed = [*new, *changed_nodes(up)[1:]]
         if up.drop:
@@ -229,11 +234,7 @@ def run_batch_sampled(updates: list[Update], every: int, heading_states: bool = 
         new = add_odometry(gen, up, heading_states)
         for other, r, var in up.ranges:
             gen.add_range(up.key, other, r, var)
-        for other in up.encounters:
-            gen.add_relative_position(up.key, other, np.zeros(3), ENC_COV)
-        if up.drop:
-            gen.add_node(up.drop)
-            gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
+        add_encounters_and_drop(gen, up)
         if k % every == every - 1:
             out.append(time_batch(gen, [*new, *changed_nodes(up)[1:]]))
     return np.array(out)
@@ -251,16 +252,13 @@ def run_gtsam(updates: list[Update], gtsam) -> dict:
     init_all = gtsam.Values()
     est: dict[str, np.ndarray] = {"base": np.zeros(3)}
     lat = np.zeros(len(updates))
-    base_noise = gtsam.noiseModel.Constrained.All(3)
-    first = True
     for k, up in enumerate(updates):
         graph = gtsam.NonlinearFactorGraph()
         vals = gtsam.Values()
-        if first:
+        if k == 0:
             graph.add(gtsam.PriorFactorPoint3(key("base"), np.zeros(3),
                                               gtsam.noiseModel.Isotropic.Sigma(3, 1e-6)))
             vals.insert(key("base"), np.zeros(3))
-            first = False
         guess = est[up.parent] + up.odo
         vals.insert(key(up.key), guess)
         # GTSAM's Between(a, b) measures x_b - x_a; our zeta_ij measures x_i - x_j
@@ -284,7 +282,6 @@ def run_gtsam(updates: list[Update], gtsam) -> dict:
             est[up.drop] = isam.calculateEstimatePoint3(key(up.drop))
         full.push_back(graph)
         init_all.insert(vals)
-    del base_noise
     final = isam.calculateEstimate()
     t0 = time.perf_counter()
     params = gtsam.LevenbergMarquardtParams()
