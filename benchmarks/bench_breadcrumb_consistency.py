@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from firenav_framework.evaluation.metrics import path_length
 from firenav_framework.pipeline import load_pipeline
 from firenav_framework.runner import run_pipeline
 
@@ -53,12 +54,10 @@ def run_seed(seed: int, overrides: list[str]) -> dict:
         dh = np.angle(np.exp(1j * (gen.heading[inside] - true_heading)))
         z_heading = np.abs(dh) / np.sqrt(gen.cov[inside][:, 3, 3])
         pdr = res.tracks["pdr.pose"][agent]
-        step_pdr = np.linalg.norm(np.diff(pdr.position[:, :2], axis=0), axis=1)
-        step_true = np.linalg.norm(np.diff(at(pdr.t, truth.t, truth.position[:, :2]), axis=0),
-                                   axis=1)
+        true_length = path_length(at(pdr.t, truth.t, truth.position[:, :2]))
         out[agent] = {"chi2": chi2, "z_heading": z_heading, "dh": dh,
                       "horizontal": np.linalg.norm(err, axis=1),
-                      "length_ratio": step_pdr.sum() / step_true.sum()}
+                      "length_ratio": path_length(pdr.position[:, :2]) / true_length}
     return out
 
 
