@@ -65,14 +65,20 @@ class _Columns:
         for name, (shape, dtype) in cols.items():
             setattr(self, name, np.zeros((self._cap, *shape), dtype))
 
-    def append(self, **values) -> int:
-        if self.n == self._cap:
+    def _reserve(self, m: int) -> None:
+        """Room for ``m`` more rows (capacity doubled as needed)."""
+        if self.n + m <= self._cap:
+            return
+        while self.n + m > self._cap:
             self._cap *= 2
-            for name in self._spec:
-                old = getattr(self, name)
-                new = np.zeros((self._cap, *old.shape[1:]), old.dtype)
-                new[:self.n] = old[:self.n]
-                setattr(self, name, new)
+        for name in self._spec:
+            old = getattr(self, name)
+            new = np.zeros((self._cap, *old.shape[1:]), old.dtype)
+            new[:self.n] = old[:self.n]
+            setattr(self, name, new)
+
+    def append(self, **values) -> int:
+        self._reserve(1)
         for name, value in values.items():
             getattr(self, name)[self.n] = value
         self.n += 1
@@ -80,13 +86,7 @@ class _Columns:
 
     def extend(self, m: int, **values) -> np.ndarray:
         """Append ``m`` rows at once; returns their indices."""
-        while self.n + m > self._cap:
-            self._cap *= 2
-            for name in self._spec:
-                old = getattr(self, name)
-                new = np.zeros((self._cap, *old.shape[1:]), old.dtype)
-                new[:self.n] = old[:self.n]
-                setattr(self, name, new)
+        self._reserve(m)
         for name, value in values.items():
             getattr(self, name)[self.n:self.n + m] = value
         self.n += m
