@@ -56,6 +56,7 @@ import numpy as np
 
 from firenav_framework import (BreadcrumbDrop, Estimator, Odometry, Params, PoseEstimate,
                                Range, param)
+from firenav_framework.angles import wrap_angle
 
 from .network import GeneralizedElectricalNetwork
 
@@ -300,7 +301,7 @@ class BreadcrumbGen(Estimator):
         node = f"{key}/heading"
         self.gen.add_node(node)
         dt = max(msg.t - prev.t, 0.0)
-        dtheta = _wrap(float(msg.dheading))
+        dtheta = wrap_angle(float(msg.dheading))
         F = np.array([[1.0, dt, dtheta], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
         q = np.diag([max(float(np.asarray(msg.cov)[3, 3]), 1e-10),
                      max(p.heading_rate_walk ** 2 * dt, 1e-14),
@@ -555,7 +556,7 @@ class BreadcrumbGen(Estimator):
             heading += float(x[1, 0])
             cov[3, 3] = float(c[1, 0, 0])
         self.ctx.publish("pose", PoseEstimate(t=msg.t, agent=msg.agent, device=msg.device,
-                                              position=x[0], heading=_wrap(heading), cov=cov))
+                                              position=x[0], heading=wrap_angle(heading), cov=cov))
 
     def _publish_touched(self, t: float) -> None:
         crumbs = self._crumb_ids()
@@ -599,10 +600,6 @@ def _nearest_state(st: _Agent, t: float) -> _State:
     return min(st.states, key=lambda s: abs(s.t - t))
 
 
-def _wrap(angle: float) -> float:
-    """Angle [rad] wrapped to (-pi, pi]."""
-    a = math.remainder(angle, 2.0 * math.pi)
-    return math.pi if a == -math.pi else a
 
 
 def _rotation(angle: float) -> np.ndarray:

@@ -30,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from firenav_framework.angles import wrap_angle as wrap  # also imported from here
+
 __all__ = ["I_E", "I_N", "I_Z", "I_LAMBDA", "I_DTHETA", "PdrFilter", "Update", "rot2",
            "drot2", "wrap"]
 
@@ -37,10 +39,6 @@ I_E, I_N, I_Z, I_LAMBDA, I_DTHETA = range(5)
 N_STATE = 5
 
 
-def wrap(angle: float) -> float:
-    """Angle wrapped to (-pi, pi] [rad]."""
-    a = math.remainder(angle, 2.0 * math.pi)
-    return math.pi if a == -math.pi else a
 
 
 def rot2(a: float) -> np.ndarray:

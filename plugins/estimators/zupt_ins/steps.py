@@ -25,13 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from firenav_framework.angles import wrap_angle as wrap  # also imported from here
+
 from . import eskf
 
 
-def wrap(angle: float) -> float:
-    """Angle wrapped to (-pi, pi]."""
-    a = math.remainder(angle, 2.0 * math.pi)
-    return math.pi if a == -math.pi else a
 
 
 @dataclass(frozen=True)
