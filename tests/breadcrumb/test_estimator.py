@@ -220,3 +220,21 @@ def test_needs_a_base_position():
 def test_conforms_to_the_plugin_contract():
     msgs, _, _ = walk(laps=1)
     check_plugin(BreadcrumbGen, PARAMS, sample_input=[m for m in msgs[:30]])
+
+
+def test_events_of_a_firefighter_without_odometry_are_counted_and_reported():
+    """ff2's odometry is all bad: its breadcrumb drop and range cannot be placed; they are
+    counted and reported at the end, not silently dropped."""
+    msgs, _, _ = walk(laps=1)
+    odo = msgs[0][1]
+    comp, rec, stats = make_component(BreadcrumbGen, PARAMS)
+    comp.start()
+    comp.handle("odo", Odometry(t=1.0, agent="ff2", t_start=0.5, delta=np.array([np.nan, 0, 0]),
+                                dheading=0.0, cov=odo.cov, position=odo.position, heading=0.0))
+    comp.handle("r", Range(t=2.0, agent="ff2", a="ff2", b="base", range_m=2.0, sigma_m=0.5,
+                           method="rssi"))
+    comp.handle("d", BreadcrumbDrop(t=3.0, agent="ff2", node_id="bc9"))
+    comp.finish()
+    assert stats.counts["under_test"]["events_without_odometry"] == 2
+    (d,) = [m for m in rec.on("diagnostics") if m.code == "no_odometry"]
+    assert d.agent == "ff2" and "2 radio/drop" in d.text

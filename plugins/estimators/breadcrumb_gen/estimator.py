@@ -367,6 +367,12 @@ class BreadcrumbGen(Estimator):
     def _release(self, agent: str, st: _Agent, final: bool) -> None:
         """Apply the waiting events of ``agent`` whose time the state chain now covers."""
         if not st.states:
+            if final and st.pending:  # no usable odometry ever came: say so, never silently
+                self.ctx.count("events_without_odometry", len(st.pending))
+                self._warn(agent, st.pending[-1].t, "no_odometry",
+                           f"{agent}: {len(st.pending)} radio/drop event(s) unused: this "
+                           "firefighter has no usable odometry to place them on")
+                st.pending = []
             return
         t_last = st.states[-1].t
         ready = [e for e in st.pending if e.t <= t_last or final]
