@@ -36,7 +36,8 @@ from firenav_framework.testing import make_component
 from firenav_plugins.constraints.orca import (AnchorRangeConstraint, OrcaConstraint,
                                               WallFollowConstraint)
 from firenav_plugins.constraints.orca.step_solver import WallGrid
-from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D
+from firenav_framework.capabilities import OdometryStep
+from firenav_framework.geometry import Rigid2D
 
 R, TAU, STEP, DT = 0.25, 2.0, 1.3, 1.0
 NONE2, NONE1 = np.zeros((0, 2)), np.zeros(0)

@@ -1,11 +1,12 @@
 """firenav: plugin-based sensor fusion that locates firefighters inside buildings.
 
-The public API for plugin authors is re-exported here: the component bases, the
-``param`` helper, message types and the ``hookimpl`` marker.
+The public API for plugin authors is re-exported here: the role bases and parameter
+helpers of :mod:`firenav_framework.contract`, the message types of
+:mod:`firenav_framework.messages` and the ``hookimpl`` marker.
 """
-from .components import (Component, Constraint, Context, Estimator, Params, PerAgent, Sensor,
-                         Sink, Source, param)
-from .hookspecs import hookimpl
+from .contract import (AgentPose, Angle, AngularRate, Component, Constraint, Context,
+                       Estimator, FileSink, Params, PerAgent, Sensor, Sink, Source, StartPose,
+                       Vec3, hookimpl, param)
 from .messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Odometry,
                        PoseEstimate, Range, RawFrame, RssiReading, TagDeployment, TagDetection,
                        Tick)
@@ -13,8 +14,9 @@ from .messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Messag
 __version__ = "0.1.0"
 
 __all__ = [
-    "Component", "Constraint", "Context", "Estimator", "Params", "PerAgent", "Sensor", "Sink",
-    "Source", "param", "hookimpl", "BreadcrumbDrop", "Diagnostic", "GroundTruth", "ImuBlock",
-    "Message", "Odometry", "PoseEstimate", "Range", "RawFrame", "RssiReading", "TagDeployment",
+    "AgentPose", "Angle", "AngularRate", "Component", "Constraint", "Context", "Estimator",
+    "FileSink", "Params", "PerAgent", "Sensor", "Sink", "Source", "StartPose", "Vec3",
+    "hookimpl", "param", "BreadcrumbDrop", "Diagnostic", "GroundTruth", "ImuBlock", "Message",
+    "Odometry", "PoseEstimate", "Range", "RawFrame", "RssiReading", "TagDeployment",
     "TagDetection", "Tick", "__version__",
 ]

@@ -29,7 +29,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
-from .components import Component
+from .contract import Component
 from .messages import Diagnostic, Message
 from .stats import RunStats
 

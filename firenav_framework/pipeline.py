@@ -33,7 +33,8 @@ import yaml
 from pydantic import ValidationError
 
 from .bus import FAULT_POLICIES
-from .components import PIPELINE_DIR, Component, Estimator, Params, Source
+from .contract import Component, Params
+from .contract.context import PIPELINE_DIR
 from .messages import Diagnostic, Message
 from .registry import PluginInfo, Registry, default_registry
 from .timeline import TimelineConfig
@@ -363,14 +364,12 @@ def _check_wiring(v: _Validator, specs: list[ComponentSpec], has_building: bool)
                       "to the pipeline (or use a source that brings one, like the simulator)")
         if s.kind == "constraint":
             parent = next((p for p in specs if p.id == s.parent and p.kind == "estimator"), None)
-            if parent is not None:
-                missing = s.cls.requires - parent.cls.provides
-                if missing:
-                    offered = ", ".join(sorted(parent.cls.provides)) or "nothing"
-                    v.problem(s.path + ("plugin",),
-                              f"constraint '{s.plugin.name}' needs an estimator that provides "
-                              f"{', '.join(sorted(missing))}; '{parent.id}' ({parent.plugin.name}) "
-                              f"provides {offered}")
+            if parent is not None and not issubclass(s.cls, parent.cls.accepts):
+                offered = (", ".join(c.__name__ for c in parent.cls.accepts)
+                           or "no constraints")
+                v.problem(s.path + ("plugin",),
+                          f"constraint '{s.plugin.name}' is a {s.cls.capability.__name__}; "
+                          f"'{parent.id}' ({parent.plugin.name}) accepts {offered}")
     _check_cycles(v, specs)
 
 
@@ -446,14 +445,8 @@ def validate_document(doc: LocatedDocument, *, registry: Registry | None = None,
             if not building.exists():
                 v.problem(("building",), f"building plan '{data['building']}' not found "
                           f"(looked for {building})")
-    source_building = any(getattr(s.cls, "provides_building", False) for s in specs
-                          if s.kind == "source")
+    source_building = any(s.cls.provides_building for s in specs if s.kind == "source")
     _check_wiring(v, specs, building is not None or source_building)
-    for s in specs:
-        if s.kind == "estimator" and not issubclass(s.cls, Estimator):
-            v.problem(s.path, f"{s.plugin.name} is not an estimator")
-        if s.kind == "source" and not issubclass(s.cls, Source):
-            v.problem(s.path, f"{s.plugin.name} is not a source")
     if v.problems:
         raise ConfigError(v.problems)
     return PipelineSpec(name=name or Path(doc.file).stem,

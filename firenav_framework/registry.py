@@ -1,26 +1,48 @@
-"""Plugin discovery: entry points of the ``firenav`` group, loaded through pluggy.
+"""Plugin discovery: what is installed, loaded only when it is needed.
 
-Each entry point is loaded in its own ``try`` so that one broken third-party package
-is reported and skipped instead of stopping every other plugin from loading (pluggy's
-``load_setuptools_entrypoints`` aborts on the first failure). ``check_pending`` then
-catches misspelled hook names.
+Two entry-point groups register plugins (built-in ones use the first, exactly as a
+vendor package can):
+
+``firenav.plugins``
+    One entry per plugin class, named ``<kind>.<name>``::
+
+        [project.entry-points."firenav.plugins"]
+        "sensor.acme_imu" = "acme_firenav.plugin:AcmeImu"
+
+    The class is imported only when a pipeline (or ``plugins show``) names it, so a
+    run pays for the plugins it uses and a broken package costs only its own plugins.
+``firenav``
+    A module carrying pluggy hook implementations (:mod:`.contract.hookspecs`); every
+    such module is imported when the registry is loaded. ``check_pending`` catches
+    misspelled hooks.
+
+Every import is contained: a package that fails (any exception, ``SystemExit``
+included) is reported by ``firenav plugins list`` and ``firenav validate`` and
+skipped; the other plugins still load. The first registration of a (kind, name)
+wins, and built-ins register first: another package offering the same name is
+refused with a message, never silently used instead.
 """
 from __future__ import annotations
 
 import functools
+import importlib
 import importlib.metadata as md
+import inspect
 import logging
 from dataclasses import dataclass, field
 
 import pluggy
 from pydantic import BaseModel
 
-from . import hookspecs
-from .components import KINDS, Component
+from .contract import hookspecs
+from .contract.component import Component
+from .contract.kinds import KIND_BASES, KINDS
 
 log = logging.getLogger("firenav.registry")
 
-ENTRY_POINT_GROUP = "firenav"
+HOOK_GROUP = "firenav"
+PLUGIN_GROUP = "firenav.plugins"
+BUILTIN_DIST = "firenav"
 
 
 @dataclass(frozen=True)
@@ -38,55 +60,134 @@ class PluginInfo:
         return self.cls.summary()
 
 
+@dataclass(frozen=True)
+class _Lazy:
+    """A ``firenav.plugins`` entry not imported yet."""
+
+    kind: str
+    name: str
+    entry_point: md.EntryPoint
+    package: str
+    version: str
+
+
 @dataclass
 class Registry:
     """All known plugins by kind and name, plus the problems met while loading them."""
 
     plugins: dict[tuple[str, str], PluginInfo] = field(default_factory=dict)
     errors: list[str] = field(default_factory=list)
+    _lazy: dict[tuple[str, str], list[_Lazy]] = field(default_factory=dict)
 
     def add(self, cls: type, *, package: str = "", version: str = "") -> None:
         """Register one component class, recording (not raising) anything wrong with it."""
-        problem = _check_plugin_class(cls)
+        problem = plugin_class_problem(cls)
         if problem:
             self.errors.append(f"{package or '?'}: {problem}")
             return
         key = (cls.kind, cls.name)
-        if key in self.plugins:
-            first = self.plugins[key]
+        if key in self.plugins or self._lazy.get(key):
+            first = self.plugins.get(key) or self._lazy[key][0]
             self.errors.append(
                 f"{package}: {cls.kind} plugin '{cls.name}' is already provided by "
                 f"{first.package}; keeping that one")
             return
         self.plugins[key] = PluginInfo(cls.name, cls.kind, cls, package, version)
 
+    def add_lazy(self, ep: md.EntryPoint, package: str, version: str) -> None:
+        """Register a ``firenav.plugins`` entry point without importing it."""
+        kind, _, name = ep.name.partition(".")
+        if kind not in KINDS or not name:
+            self.errors.append(f"{package}: entry point '{ep.name}' must be named "
+                               f"<kind>.<name> with kind one of {', '.join(KINDS)}")
+            return
+        self._lazy.setdefault((kind, name), []).append(_Lazy(kind, name, ep, package, version))
+
+    def _load(self, key: tuple[str, str]) -> None:
+        for ref in self._lazy.pop(key, []):
+            cls = _import(ref.entry_point, ref.package, self.errors)
+            if cls is None:
+                continue
+            if isinstance(cls, type) and issubclass(cls, Component) and \
+                    (cls.kind, cls.name) != key:
+                self.errors.append(f"{ref.package}: entry point '{ref.entry_point.name}' "
+                                   f"loads {cls.kind} plugin '{cls.name}'")
+                continue
+            self.add(cls, package=ref.package, version=ref.version)
+
+    def load_all(self) -> None:
+        """Import every registered plugin (for listings)."""
+        for key in sorted(self._lazy):
+            self._load(key)
+
     def get(self, kind: str, name: str) -> PluginInfo | None:
+        if (kind, name) not in self.plugins:
+            self._load((kind, name))
         return self.plugins.get((kind, name))
 
     def names(self, kind: str | None = None) -> list[str]:
-        return sorted(n for k, n in self.plugins if kind is None or k == kind)
+        """Names of the registered plugins (of one kind), imported or not."""
+        keys = set(self.plugins) | {k for k, refs in self._lazy.items() if refs}
+        return sorted(n for k, n in keys if kind is None or k == kind)
 
     def find(self, name: str) -> list[PluginInfo]:
         """Every plugin called ``name``, whatever its kind."""
+        for kind in KINDS:
+            self.get(kind, name)
         return [p for (k, n), p in sorted(self.plugins.items()) if n == name]
 
     def by_kind(self) -> dict[str, list[PluginInfo]]:
+        self.load_all()
         out: dict[str, list[PluginInfo]] = {k: [] for k in KINDS}
         for (kind, _), info in sorted(self.plugins.items()):
             out[kind].append(info)
         return out
 
 
-def _check_plugin_class(cls: object) -> str | None:
+def plugin_class_problem(cls: object) -> str | None:
+    """Why ``cls`` is not a usable plugin class (None when it is)."""
     if not isinstance(cls, type) or not issubclass(cls, Component):
         return f"{cls!r} is not a firenav component class"
-    if cls.kind not in KINDS:
-        return f"{cls.__name__} has kind {cls.kind!r}; expected one of {', '.join(KINDS)}"
+    if cls.kind not in KINDS or not issubclass(cls, KIND_BASES[cls.kind]):
+        return (f"{cls.__name__} has kind {cls.kind!r}; it must subclass one of "
+                f"Source, Sensor, Estimator, Constraint, Sink")
     if not cls.name or not cls.name.replace("_", "").replace("-", "").isalnum():
         return f"{cls.__name__} needs a `name` made of letters, digits, '_' or '-'"
     if not (isinstance(cls.Params, type) and issubclass(cls.Params, BaseModel)):
         return f"{cls.__name__}.Params must be a pydantic model"
+    if inspect.isabstract(cls):
+        missing = ", ".join(sorted(getattr(cls, "__abstractmethods__", ())))
+        return f"{cls.__name__} does not implement {missing} (required of a {cls.kind})"
+    if cls.kind == "constraint" and cls.capability is None:
+        return (f"{cls.__name__} must subclass a capability base from "
+                f"firenav_framework.capabilities (what its estimator calls)")
+    if cls.kind == "constraint" and cls.hooks and not any(
+            getattr(cls, h) is not getattr(cls.capability, h) for h in cls.hooks):
+        return (f"{cls.__name__} implements none of {', '.join(cls.hooks)} "
+                f"(the {cls.capability.__name__} methods its estimator calls)")
+    if cls.kind == "constraint" and cls.inputs and \
+            cls.handle is KIND_BASES["constraint"].handle:
+        return f"{cls.__name__} declares inputs but does not implement handle()"
     return None
+
+
+def _import(ep: md.EntryPoint, package: str, errors: list[str]) -> object | None:
+    """The object an entry point names (``module`` or ``module:attr``), with every failure
+    reported instead of raised."""
+    target = ep.value
+    module, _, attr = target.partition(":")
+    try:
+        obj = importlib.import_module(module)
+        for part in attr.split(".") if attr else ():
+            obj = getattr(obj, part)
+        return obj
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # a broken package (even one calling sys.exit) is skipped
+        errors.append(f"{package}: entry point '{ep.name} = {target}' failed to load: "
+                      f"{type(exc).__name__}: {exc}")
+        log.warning("skipping plugin %s: %s", target, exc)
+        return None
 
 
 def _dist_of(ep: md.EntryPoint) -> tuple[str, str]:
@@ -96,26 +197,37 @@ def _dist_of(ep: md.EntryPoint) -> tuple[str, str]:
     return dist.metadata["Name"], dist.version
 
 
+def _builtin_first(ep: md.EntryPoint) -> tuple[bool, str, str]:
+    package, _ = _dist_of(ep)
+    return package != BUILTIN_DIST, package, ep.name
+
+
 def load_registry(entry_points: list[md.EntryPoint] | None = None) -> Registry:
-    """Discover plugins from entry points (all of the ``firenav`` group by default)."""
+    """Discover plugins from entry points (both groups of every installed package by default)."""
     registry = Registry()
+    if entry_points is None:
+        entry_points = [*md.entry_points(group=PLUGIN_GROUP), *md.entry_points(group=HOOK_GROUP)]
+    entry_points = sorted(entry_points, key=_builtin_first)
+    for ep in entry_points:
+        if ep.group == PLUGIN_GROUP:
+            registry.add_lazy(ep, *_dist_of(ep))
+    _load_hook_modules(registry, [ep for ep in entry_points if ep.group != PLUGIN_GROUP])
+    return registry
+
+
+def _load_hook_modules(registry: Registry, entry_points: list[md.EntryPoint]) -> None:
     pm = pluggy.PluginManager(hookspecs.PROJECT)
     pm.add_hookspecs(hookspecs)
-    if entry_points is None:
-        entry_points = sorted(md.entry_points(group=ENTRY_POINT_GROUP),
-                              key=lambda e: (e.dist.metadata["Name"] != "firenav"
-                                             if e.dist else True, e.name))
     origin: dict[str, tuple[str, str]] = {}
     for ep in entry_points:
         package, version = _dist_of(ep)
+        module = _import(ep, package, registry.errors)
+        if module is None:
+            continue
         try:
-            module = ep.load()
             pm.register(module, name=f"{package}:{ep.name}")
-        except Exception as exc:  # a broken third-party plugin must not stop the rest
-            registry.errors.append(
-                f"{package}: entry point '{ep.name} = {ep.value}' failed to load: "
-                f"{type(exc).__name__}: {exc}")
-            log.warning("skipping plugin %s: %s", ep.name, exc)
+        except Exception as exc:
+            registry.errors.append(f"{package}: entry point '{ep.name}' is not a hook module: {exc}")
             continue
         origin[f"{package}:{ep.name}"] = (package, version)
     while True:  # a misspelled hook would otherwise be ignored silently
@@ -133,48 +245,17 @@ def load_registry(entry_points: list[md.EntryPoint] | None = None) -> Registry:
         package, version = origin.get(impl.plugin_name, (impl.plugin_name, ""))
         try:
             classes = impl.function()
-        except Exception as exc:
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:
             registry.errors.append(f"{package}: firenav_plugins() raised "
                                    f"{type(exc).__name__}: {exc}")
             continue
         for cls in classes or ():
             registry.add(cls, package=package, version=version)
-    registry.errors.extend(_IMPORT_ERRORS)
-    _IMPORT_ERRORS.clear()
-    return registry
 
 
 @functools.lru_cache(maxsize=1)
 def default_registry() -> Registry:
     """The registry of everything installed, loaded once per process."""
     return load_registry()
-
-
-def collect_plugins(package: str) -> list[type]:
-    """Component classes listed in ``PLUGINS`` of every module of ``package``.
-
-    The built-in packages use this in their ``firenav_plugins`` hook, so each plugin
-    module declares its own plugins and no shared list has to be edited. A module
-    that fails to import is logged and skipped, like a broken third-party package.
-    """
-    import importlib
-    import pkgutil
-
-    pkg = importlib.import_module(package)
-    found: list[type] = list(getattr(pkg, "PLUGINS", []))
-    for mod in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda m: m.name):
-        if mod.name.startswith("_"):
-            continue
-        try:
-            module = importlib.import_module(f"{package}.{mod.name}")
-        except Exception as exc:
-            problem = f"{package}.{mod.name} failed to import: {type(exc).__name__}: {exc}"
-            log.error("%s", problem)
-            _IMPORT_ERRORS.append(problem)
-            continue
-        found.extend(getattr(module, "PLUGINS", []))
-    return found
-
-
-#: Import failures of built-in plugin modules, reported with the registry's errors.
-_IMPORT_ERRORS: list[str] = []

@@ -22,7 +22,8 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from .bus import Bus, Fault, Subscription
-from .components import PIPELINE_DIR, Component, Context, Estimator, Source
+from .contract import Component, Context, Estimator, Source
+from .contract.context import PIPELINE_DIR
 from .messages import Diagnostic, Message
 from .pipeline import PipelineSpec
 from .stats import RunStats
@@ -115,6 +116,7 @@ class Runner:
         self.subs: dict[str, Subscription] = {}
         self._stop = threading.Event()
         self._building_cache: list[Any] = []
+        self._tick_streams: set[str] = set()
 
     # -- construction ---------------------------------------------------------------
     def _load_building(self) -> Any:
@@ -156,11 +158,12 @@ class Runner:
             self.subs[cs.id] = sub
             for stream in cs.inputs:
                 self.bus.subscribe(stream, sub)
-            period = getattr(cs.cls, "tick_period", None)
-            if callable(period) and period(cs.params):
-                stream = f"ticks.{period(cs.params):g}"
-                if stream not in self.bus._subs:
-                    self.timeline.add_tick(period(cs.params), stream)
+            period = cs.cls.tick_period(cs.params)
+            if period:
+                stream = f"ticks.{period:g}"
+                if stream not in self._tick_streams:
+                    self._tick_streams.add(stream)
+                    self.timeline.add_tick(period, stream)
                 self.bus.subscribe(stream, sub)
         for cs in self.spec.components:
             if cs.kind == "constraint":
@@ -223,6 +226,7 @@ class Runner:
             if not isinstance(comp, Source):
                 self.bus.call(self.subs[cid], "finish", comp.finish,
                               t=self._t_last if self._t_last is not None else 0.0)
+            comp.ctx.flush_reports()
         return RunResult(
             pipeline=self.spec.name, stats=self.stats, tracks=self.store.tracks(),
             truth=self.store.truth(), diagnostics=self.diagnostics, faults=self.bus.faults,

@@ -17,9 +17,9 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from .components import Component, Context, Source
+from .contract import Component, Context, Source
 from .messages import Message
-from .registry import _check_plugin_class
+from .registry import plugin_class_problem
 from .stats import RunStats
 
 
@@ -67,7 +67,7 @@ def run_component(cls: type[Component], params: dict | BaseModel | None = None,
 def check_plugin(cls: type[Component], params: dict | None = None, *,
                  sample_input: Iterable[tuple[str, Message]] = (), **kw: Any) -> Recorder:
     """Assert that ``cls`` is a conforming firenav plugin; returns what it published."""
-    problem = _check_plugin_class(cls)
+    problem = plugin_class_problem(cls)
     assert problem is None, problem
     assert cls.summary(), f"{cls.__name__} needs a docstring: its first line is the summary"
     for name, field in cls.Params.model_fields.items():

@@ -17,7 +17,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..components import Context
+from ..contract import Context
 from ..messages import ImuBlock
 from ..registry import default_registry
 from ..stats import RunStats

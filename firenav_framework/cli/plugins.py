@@ -54,9 +54,11 @@ def show_plugin(args: argparse.Namespace) -> int:
         outs = {k: v.__name__ for k, v in cls.outputs.items()}
         if outs:
             print("outputs: " + ", ".join(f"{k} ({v})" for k, v in outs.items()))
-        for attr in ("provides", "requires"):
-            if getattr(cls, attr, None):
-                print(f"{attr}: " + ", ".join(sorted(getattr(cls, attr))))
+        if info.kind == "estimator" and cls.accepts:
+            print("accepts constraints: " + ", ".join(
+                f"{c.__name__} ({c.__module__})" for c in cls.accepts))
+        if info.kind == "constraint" and cls.capability is not None:
+            print(f"capability: {cls.capability.__name__} ({cls.capability.__module__})")
         rows = [[r.name, r.type, r.default, r.unit, r.meaning] for r in param_rows(cls.Params)]
         print("\nparameters:")
         print(format_table(rows, ["name", "type", "default", "unit", "meaning"])

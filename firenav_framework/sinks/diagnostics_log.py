@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import json
 
-from ..components import param, Params
+from ..contract import param, Params
 from ..messages import Diagnostic
-from .base import FileSink
+from ..contract import FileSink
 
 
 class DiagnosticsLog(FileSink):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from ..components import Params, Sink, param
+from ..contract import Params, Sink, param
 from ..liveview.server import LiveViewServer, ViewState, building_json
 from ..liveview.status import StatusTracker
 from ..messages import Diagnostic, PoseEstimate, Tick

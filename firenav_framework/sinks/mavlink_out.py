@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ..components import Sink, param
+from ..contract import Sink, param
 from ..liveview.status import StatusTracker
 from ..messages import Diagnostic, PoseEstimate, Tick
 from ..transports.mavlink_link import mavutil

@@ -22,9 +22,9 @@ import typing
 
 import numpy as np
 
-from ..components import Params, param
+from ..contract import Params, param
 from ..messages import Message
-from .base import FileSink
+from ..contract import FileSink
 
 _JSON_TYPES = {float: {"type": ["number", "null"]}, int: {"type": "integer"},
                str: {"type": "string"}, bool: {"type": "boolean"}}

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 from typing import IO
 
-from ..components import param, Params
+from ..contract import param, Params
 from ..messages import PoseEstimate
 from ..tracks import CSV_HEADER, TrackStore, pose_csv_row, write_geojson
-from .base import FileSink
+from ..contract import FileSink
 
 
 class CsvTracks(FileSink):

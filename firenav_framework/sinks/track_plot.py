@@ -5,10 +5,10 @@ from typing import Any
 
 import numpy as np
 
-from ..components import Params, param
+from ..contract import Params, param
 from ..messages import GroundTruth, PoseEstimate
 from ..tracks import Track, TrackStore
-from .base import FileSink
+from ..contract import FileSink
 
 
 def floors_of(track: Track, building: Any) -> np.ndarray:

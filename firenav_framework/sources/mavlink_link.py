@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..components import param
+from ..contract import param
 from ..transports.live_source import LiveParams, LiveSource
 from ..transports.mavlink_link import MavlinkLink
 from ..transports.recorders import TlogRecorder

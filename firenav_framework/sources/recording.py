@@ -11,7 +11,7 @@ from pathlib import Path
 
 from pydantic import field_validator
 
-from ..components import Params, Source, param
+from ..contract import Params, Source, param
 from ..messages import Message
 from .readers import PORTS, ReaderError, ReadOptions, find_reader, reader_table
 

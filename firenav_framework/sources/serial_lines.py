@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..components import param
+from ..contract import param
 from ..transports.line_links import SerialLineLink
 from ..transports.live_source import LiveParams, LiveSource
 from ..transports.recorders import LinesRecorder

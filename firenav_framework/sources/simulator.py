@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from pathlib import Path
 
-from ..components import Params, Source, param, pipeline_dir
+from ..contract import Params, Source, param, pipeline_dir
 from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range,
                         RssiReading, TagDeployment, TagDetection)
 from ..yaml_locations import ConfigError

@@ -20,7 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, ClassVar
 
-from ..components import Params, Source, param
+from ..contract import Params, Source, param
 from ..messages import Diagnostic, Message, RawFrame
 from . import clock
 from .health import LinkMonitor

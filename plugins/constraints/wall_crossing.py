@@ -23,7 +23,7 @@ from typing import Literal
 import numpy as np
 
 from firenav_framework import Params, param
-from firenav_plugins.estimators.particle_filter import ParticleConstraint, ParticleStep
+from firenav_framework.capabilities.particles import ParticleConstraint, ParticleStep
 
 __all__ = ["WallCrossing", "crossing_moves"]
 

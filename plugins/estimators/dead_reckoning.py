@@ -13,11 +13,11 @@ frame, whose yaw and origin are arbitrary) into poses in the building frame:
    steps (``imu_yaw_offset``), so steps are held back until then.
 2. **Integration**: each increment moves the INS position in the local frame; the
    update matrix maps it into the building frame (the *proposed* position).
-3. **Correction**: every attached constraint (capability ``odometry_correction``) sees
+3. **Correction**: every attached constraint (an
+   :class:`~firenav_framework.capabilities.odometry_correction.OdometryCorrection`) sees
    the step and may move the corrected position and change the update matrix for this
-   and all later steps (ORCA's rotation, door and reset rules). The protocol is
-   :class:`OdometryCorrector`; constraints run in pipeline order, each seeing the
-   previous one's result.
+   and all later steps (ORCA's rotation, door and reset rules); constraints run in
+   pipeline order, each seeing the previous one's result.
 
 With no constraints this is the plain "INS alone" baseline in the building frame that
 the evaluations of several papers compare against.
@@ -32,131 +32,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal, Protocol, runtime_checkable
+from typing import Literal
 
 import numpy as np
 
 from firenav_framework import (Estimator, GroundTruth, Odometry, Params, PerAgent, PoseEstimate,
                                param)
+from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
+                                                                StepCorrection)
+from firenav_framework.geometry import Rigid2D, rot2, wrap_angle
 
-__all__ = ["Rigid2D", "OdometryStep", "StepCorrection", "OdometryCorrector", "DeadReckoning",
-           "PLUGINS"]
-
-
-def wrap_angle(a: float) -> float:
-    """Angle wrapped to (-pi, pi] [rad]."""
-    a = math.fmod(a + math.pi, 2.0 * math.pi)
-    if a <= 0.0:
-        a += 2.0 * math.pi
-    return a - math.pi
-
-
-@dataclass(frozen=True)
-class Rigid2D:
-    """A planar rigid transform: rotate by ``angle`` [rad] about the origin, then add
-    ``offset`` (2,) [m]. Its homogeneous matrix is the paper's update matrix (eq. 8)::
-
-        [[cos a, -sin a, dx],
-         [sin a,  cos a, dy],
-         [0,      0,      1]]
-    """
-
-    angle: float = 0.0
-    offset: np.ndarray = field(default_factory=lambda: np.zeros(2))
-
-    @classmethod
-    def rotation_about(cls, angle: float, center: np.ndarray) -> "Rigid2D":
-        """Rotation by ``angle`` [rad] about ``center`` (2,) [m]."""
-        x, y = float(center[0]), float(center[1])
-        c, s = math.cos(angle), math.sin(angle)
-        return cls(angle, np.array([x - (c * x - s * y), y - (s * x + c * y)]))
-
-    @classmethod
-    def translation(cls, d: np.ndarray) -> "Rigid2D":
-        return cls(0.0, np.asarray(d, float)[:2].copy())
-
-    @classmethod
-    def mapping(cls, local: np.ndarray, local_heading: float, world: np.ndarray,
-                world_heading: float) -> "Rigid2D":
-        """The transform taking pose (``local``, ``local_heading``) to (``world``, ``world_heading``)."""
-        a = wrap_angle(world_heading - local_heading)
-        return cls(a, np.asarray(world, float)[:2] - _rot(a) @ np.asarray(local, float)[:2])
-
-    def apply(self, p: np.ndarray) -> np.ndarray:
-        """Map points (..., 2) or (..., 3) [m]; z passes through unchanged."""
-        p = np.asarray(p, float)
-        out = p.copy()
-        out[..., :2] = p[..., :2] @ _rot(self.angle).T + self.offset
-        return out
-
-    def rotate(self, v: np.ndarray) -> np.ndarray:
-        """Rotate vectors (..., 2) or (..., 3) (no translation): increments, velocities."""
-        v = np.asarray(v, float)
-        out = v.copy()
-        out[..., :2] = v[..., :2] @ _rot(self.angle).T
-        return out
-
-    def then(self, other: "Rigid2D") -> "Rigid2D":
-        """``other`` applied after ``self`` (``other`` o ``self``)."""
-        return Rigid2D(wrap_angle(self.angle + other.angle),
-                       _rot(other.angle) @ self.offset + other.offset)
-
-    @property
-    def matrix(self) -> np.ndarray:
-        """The 3x3 homogeneous update matrix of eq. 8."""
-        m = np.eye(3)
-        m[:2, :2] = _rot(self.angle)
-        m[:2, 2] = self.offset
-        return m
-
-
-def _rot(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s], [s, c]])
-
-
-@dataclass(frozen=True)
-class OdometryStep:
-    """One INS step as a constraint sees it (building frame, ENU metres, seconds).
-
-    ``prev`` (3,) is the corrected position before the step; ``proposed`` (3,) where
-    the step leads under the current update matrix ``transform`` (INS frame ->
-    building frame); ``ins_position`` (3,) the integrated INS position in its own frame;
-    ``dt`` [s] the time since the previous step; ``heading`` the proposed building-frame
-    heading [rad]; ``odometry`` the INS message itself.
-    """
-
-    agent: str
-    t: float
-    dt: float
-    prev: np.ndarray
-    proposed: np.ndarray
-    heading: float
-    transform: Rigid2D
-    ins_position: np.ndarray
-    odometry: Odometry
-
-
-@dataclass(frozen=True)
-class StepCorrection:
-    """A constraint's answer: the corrected ``position`` (3,) [m] after the step and an
-    optional ``update`` composed after the current transform (it moves this and every
-    later step). ``jump`` True marks a correction that teleports the agent (door or
-    reset rules), which downstream filters should treat as uncertain. ``event`` names
-    the rule that fired (counted in the run summary)."""
-
-    position: np.ndarray
-    update: Rigid2D | None = None
-    jump: bool = False
-    event: str = ""
-
-
-@runtime_checkable
-class OdometryCorrector(Protocol):
-    """What a constraint attached to ``dead_reckoning`` implements (``odometry_correction``)."""
-
-    def correct(self, step: OdometryStep) -> StepCorrection | None:
-        """Return a correction of this step, or None to leave it as proposed."""
+__all__ = ["DeadReckoning", "PLUGINS"]
 
 
 @dataclass
@@ -182,7 +68,7 @@ class DeadReckoning(Estimator):
     name = "dead_reckoning"
     inputs = (Odometry, GroundTruth)
     outputs = {"pose": PoseEstimate, "odometry": Odometry}
-    provides = frozenset({"odometry_correction"})
+    accepts = (OdometryCorrection,)
 
     class Params(Params):
         alignment: Literal["entrance", "pose", "first_segment", "truth", "none"] = param(
@@ -235,10 +121,6 @@ class DeadReckoning(Estimator):
         self._floors = None   # the building, when the pipeline has one (for floor indices)
 
     def start(self) -> None:
-        for c in self.constraints:
-            if not isinstance(c, OdometryCorrector):
-                raise TypeError(f"constraint {c.ctx.id!r} ({type(c).__name__}) is attached to "
-                                f"dead_reckoning but has no correct(step) method")
         p = self.params
         if p.alignment == "entrance" or (p.alignment == "first_segment"
                                          and p.start_position is None):
@@ -427,7 +309,7 @@ class DeadReckoning(Estimator):
         # covariance: heading error carries into position, plus the step's own noise
         move = position - prev
         g = np.eye(4)
-        g[:2, :2] = _rot(st.transform.angle)
+        g[:2, :2] = rot2(st.transform.angle)
         f = np.eye(4)
         f[0, 3], f[1, 3] = -move[1], move[0]
         q = g @ np.asarray(msg.cov, float) @ g.T

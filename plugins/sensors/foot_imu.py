@@ -28,7 +28,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import field_validator, model_validator
 
-from firenav_framework.components import Context, Params, Sensor, param
+from firenav_framework.contract import Context, Params, Sensor, param
 from firenav_framework.messages import ImuBlock, RawFrame
 from firenav_framework.sources.readers.imu_csv import UNIT_SCALES
 

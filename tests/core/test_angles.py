@@ -3,7 +3,7 @@ import math
 
 import pytest
 
-from firenav_framework.angles import wrap_angle
+from firenav_framework.geometry import wrap_angle
 
 
 @pytest.mark.parametrize("angle, expected", [

@@ -22,6 +22,8 @@ class Good(Sensor):
     outputs = {"range": Range}
     class Params(Params):
         pass
+    def handle(self, stream, msg):
+        self.ctx.publish("range", msg)
 @hookimpl
 def firenav_plugins():
     return [Good]

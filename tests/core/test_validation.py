@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from firenav_framework import Constraint, Params
+from firenav_framework import Params
+from firenav_framework.capabilities import ParticleConstraint
 from firenav_framework.pipeline import load_pipeline, load_pipeline_text
 from firenav_framework.yaml_locations import ConfigError
 
@@ -93,13 +94,15 @@ def test_two_components_with_one_id():
 
 
 def test_constraint_on_an_estimator_that_cannot_use_it():
-    class NeedsParticles(Constraint):
+    class NeedsParticles(ParticleConstraint):
         """Needs particles."""
         name = "needs_particles"
-        requires = frozenset({"particles"})
 
         class Params(Params):
             pass
+
+        def log_likelihood(self, step):
+            return None
 
     reg = toy_registry()
     reg.add(NeedsParticles, package="toys")
@@ -109,8 +112,8 @@ def test_constraint_on_an_estimator_that_cannot_use_it():
         load_pipeline_text(text, file="p.yaml", registry=reg)
     (p,) = info.value.problems
     assert (p.line, p.col) == (12, 9)
-    assert "needs an estimator that provides particles; 'dr' (integrate) provides odometry_sum" \
-        in p.message
+    assert p.message == ("constraint 'needs_particles' is a ParticleConstraint; 'dr' (integrate) "
+                         "accepts no constraints")
 
 
 def test_missing_input_and_missing_source():

@@ -66,7 +66,6 @@ class Integrate(Estimator):
     name = "integrate"
     inputs = (Odometry,)
     outputs = {"pose": PoseEstimate}
-    provides = frozenset({"odometry_sum"})
 
     class Params(Params):
         fail_agent: str = param("", description="agent whose step at fail_t raises")

@@ -9,7 +9,7 @@ import pytest
 from firenav_framework.building import Door, Floor
 from firenav_plugins.constraints.orca import approach_angle, classify_rotation, line_crossing
 from firenav_plugins.constraints.orca.doors import DoorTable, RangeFix
-from firenav_plugins.estimators.dead_reckoning import Rigid2D
+from firenav_framework.geometry import Rigid2D
 
 DEG = math.radians
 PAPER = dict(min_rotation=DEG(2), max_rotation=DEG(30), door_angle=DEG(90),

@@ -13,8 +13,8 @@ from firenav_framework.building.sketch import PlanSketch
 from firenav_framework.testing import check_plugin, make_component
 from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcp
 from firenav_plugins.constraints.wall_crossing import WallCrossing
-from firenav_plugins.estimators.particle_filter import (ParticleConstraint, ParticleFilter,
-                                                       Particles)
+from firenav_framework.capabilities import ParticleConstraint, Particles
+from firenav_plugins.estimators.particle_filter import ParticleFilter
 from firenav_plugins.estimators.particle_filter.map_error import SpreadMonitor
 from tests.pf.synthetic import drifting_walk
 

@@ -143,8 +143,8 @@ def _step_after_walking(path_map: np.ndarray, cloud_at: np.ndarray, spread: floa
     """A ParticleStep whose INS history walked ``path_map`` (seen rotated by 1 rad in the
     INS frame) and whose 200 particles sit at ``cloud_at`` heading the way the walk ended."""
     from firenav_framework import Odometry
-    from firenav_plugins.estimators.particle_filter import Particles, ParticleStep
-    from firenav_plugins.estimators.particle_filter.history import OdometryHistory
+    from firenav_framework.capabilities import Particles, ParticleStep
+    from firenav_framework.capabilities import OdometryHistory
 
     lead_in = path_map[:1] - (path_map[1] - path_map[0])     # walk a metre more than d
     ins = densify(np.vstack([lead_in, path_map]), 0.25) @ rot(-1.0).T

@@ -6,10 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from firenav_plugins.estimators.particle_filter.history import OdometryHistory
+from firenav_framework.capabilities import OdometryHistory
 from firenav_plugins.estimators.particle_filter.motion import MotionNoise, propagate
-from firenav_plugins.estimators.particle_filter.particles import (ParticleSummary, Particles,
-                                                                  wrap_angle)
+from firenav_framework.capabilities import Particles
+from firenav_framework.geometry import wrap_angles as wrap_angle
+from firenav_plugins.estimators.particle_filter.particles import ParticleSummary
 
 
 def test_noise_free_move_rotates_and_scales_the_increment():

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firenav_plugins.estimators.particle_filter.particles import Particles
+from firenav_framework.capabilities import Particles
 from firenav_plugins.estimators.particle_filter.resampling import (RESAMPLERS, replace_removed,
                                                                    resample_indices)
 

@@ -11,9 +11,9 @@ from firenav_framework import Odometry
 from firenav_framework.building.sketch import PlanSketch
 from firenav_framework.testing import make_component
 from firenav_plugins.constraints.wall_crossing import WallCrossing
-from firenav_plugins.estimators.particle_filter import (ParticleConstraint, ParticleFilter,
-                                                       Particles, ParticleStep)
-from firenav_plugins.estimators.particle_filter.history import OdometryHistory
+from firenav_framework.capabilities import ParticleConstraint, Particles, ParticleStep
+from firenav_plugins.estimators.particle_filter import ParticleFilter
+from firenav_framework.capabilities import OdometryHistory
 
 
 @pytest.fixture(scope="module")

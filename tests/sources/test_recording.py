@@ -15,7 +15,7 @@ from pydantic import ValidationError
 
 import firenav_framework.sources.readers as readers
 from firenav_framework.cli import main
-from firenav_framework.components import Sink
+from firenav_framework.contract import Sink
 from firenav_framework.messages import IMU_FLAG_BITS, ImuBlock
 from firenav_framework.pipeline import load_pipeline_text
 from firenav_framework.registry import load_registry

@@ -65,8 +65,10 @@ from typing import Literal
 
 import numpy as np
 
-from firenav_framework import Constraint, Params, PerAgent, Range, param
-from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, StepCorrection
+from firenav_framework import Params, PerAgent, Range, param
+from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
+                                                                StepCorrection)
+from firenav_framework.geometry import Rigid2D
 
 from .anchors import AnchorSite
 from .doors import DoorTable, RangeFix
@@ -132,12 +134,11 @@ class _Agent:
     turns: TurnHistory = field(default_factory=TurnHistory)
 
 
-class OrcaConstraint(Constraint):
+class OrcaConstraint(OdometryCorrection):
     """ORCA collision-avoidance velocity map matching of dead-reckoned steps (rotation, door, reset rules)."""
 
     name = "orca"
     inputs = (Range,)
-    requires = frozenset({"odometry_correction"})
     needs_building = True
 
     class Params(Params):

@@ -25,8 +25,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from firenav_framework import Constraint, Params, PerAgent, Range, param
-from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, StepCorrection
+from firenav_framework import Params, PerAgent, Range, param
+from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
+                                                                StepCorrection)
+from firenav_framework.geometry import Rigid2D
 
 from .anchors import AnchorSite
 
@@ -40,12 +42,11 @@ class _Agent:
     t: float | None = None                         # time of the last step [s]
 
 
-class AnchorRangeConstraint(Constraint):
+class AnchorRangeConstraint(OdometryCorrection):
     """UWB ranges to fixed anchors correct the dead-reckoned position (Kalman filter, translation)."""
 
     name = "anchor_range"
     inputs = (Range,)
-    requires = frozenset({"odometry_correction"})
     needs_building = True
 
     class Params(Params):

@@ -34,8 +34,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from firenav_framework import Constraint, Params, PerAgent, param
-from firenav_plugins.estimators.dead_reckoning import OdometryStep, Rigid2D, StepCorrection
+from firenav_framework import Params, PerAgent, param
+from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
+                                                                StepCorrection)
+from firenav_framework.geometry import Rigid2D
 
 from .anchors import AnchorSite
 from .turns import TurnHistory
@@ -88,11 +90,10 @@ class _Run:
     turns: TurnHistory = field(default_factory=TurnHistory)
 
 
-class WallFollowConstraint(Constraint):
+class WallFollowConstraint(OdometryCorrection):
     """Wall-following evidence: a straight run alongside a wall is made parallel to it (heading)."""
 
     name = "wall_follow"
-    requires = frozenset({"odometry_correction"})
     needs_building = True
 
     class Params(Params):

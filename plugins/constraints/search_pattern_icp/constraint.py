@@ -33,8 +33,7 @@ import shapely
 
 from firenav_framework import PerAgent, Params, param
 from firenav_framework.building.search_patterns import extract_search_patterns
-from firenav_plugins.estimators.particle_filter import (ParticleConstraint, Particles,
-                                                       ParticleStep)
+from firenav_framework.capabilities.particles import ParticleConstraint, Particles, ParticleStep
 
 from .comparison import Observations, PatternComparison
 

@@ -56,7 +56,7 @@ import numpy as np
 
 from firenav_framework import (BreadcrumbDrop, Estimator, Odometry, Params, PoseEstimate,
                                Range, param)
-from firenav_framework.angles import wrap_angle
+from firenav_framework.geometry import wrap_angle
 
 from .network import GeneralizedElectricalNetwork
 
@@ -87,7 +87,6 @@ class BreadcrumbGen(Estimator):
     name = "breadcrumb_gen"
     inputs = (Odometry, Range, BreadcrumbDrop)
     outputs = {"pose": PoseEstimate, "breadcrumbs": PoseEstimate}
-    provides = frozenset({"relative_measurement_graph"})
 
     class Params(Params):
         base_id: str = param("base", description="node id of the base station (the anchor)")

@@ -1,13 +1,10 @@
 """Map-aided particle filter on INS odometry (search-pattern paper §IV-E).
 
-The estimator (:mod:`.estimator`) and the "particles" capability its constraints
-use (:mod:`.constraint`): constraints subclass :class:`ParticleConstraint`.
+Its constraints implement the particles capability
+(:mod:`firenav_framework.capabilities.particles`).
 """
-from .constraint import ParticleConstraint, ParticleStep
 from .estimator import ParticleFilter
-from .particles import ParticleSummary, Particles
 
 PLUGINS = [ParticleFilter]
 
-__all__ = ["ParticleFilter", "ParticleConstraint", "ParticleStep", "Particles",
-           "ParticleSummary", "PLUGINS"]
+__all__ = ["ParticleFilter", "PLUGINS"]

@@ -36,14 +36,14 @@ import numpy as np
 
 from firenav_framework import (Estimator, GroundTruth, Odometry, Params, PerAgent,
                                PoseEstimate, param)
+from firenav_framework.capabilities.odometry_history import OdometryHistory
+from firenav_framework.capabilities.particles import ParticleConstraint, ParticleStep, Particles
+from firenav_framework.geometry import wrap_angles
 
-from .constraint import ParticleConstraint, ParticleStep
-from .history import OdometryHistory
 from .initialisation import around_pose, near_point, uniform_free_space
 from .map_error import SpreadMonitor
 from .motion import MotionNoise, propagate
-from .particles import (ParticleSummary, Particles, local_log_weight, normalise_log_weights,
-                        wrap_angle)
+from .particles import ParticleSummary, local_log_weight, normalise_log_weights
 from .resampling import Resampler, replace_removed, resample_indices
 from .stairs import apply_stairs
 
@@ -150,7 +150,7 @@ class ParticleFilter(Estimator):
     name = "particle_filter"
     inputs = (Odometry, GroundTruth)
     outputs = {"pose": PoseEstimate}
-    provides = frozenset({"particles"})
+    accepts = (ParticleConstraint,)
     needs_building = True
     Params = ParticleFilterParams
 
@@ -257,7 +257,7 @@ class ParticleFilter(Estimator):
         scale = 1.0 + p.step_scale_sigma * rng.standard_normal(n) if p.step_scale_sigma else 1.0
         rate = (math.radians(p.yaw_rate_sigma_dps) * rng.standard_normal(n)
                 if p.yaw_rate_sigma_dps else 0.0)
-        st.particles = Particles.create(xy, wrap_angle(heading - ins_heading0), floor, scale, rate)
+        st.particles = Particles.create(xy, wrap_angles(heading - ins_heading0), floor, scale, rate)
         st.history.append(msg.t_start, np.asarray(msg.position, float) - msg.delta, ins_heading0)
         return True
 

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .particles import Particles, wrap_angle
+from firenav_framework.capabilities.particles import Particles
+from firenav_framework.geometry import wrap_angles
 
 __all__ = ["MotionNoise", "propagate"]
 
@@ -62,9 +63,9 @@ def propagate(p: Particles, delta_xy: np.ndarray, dt: float, noise: MotionNoise,
     p.xy[:, 0] += p.scale * (c * dx - s * dy)
     p.xy[:, 1] += p.scale * (s * dx + c * dy)
     if drifting:
-        p.yaw = wrap_angle(p.yaw + 0.5 * drift_s * p.yaw_rate)
+        p.yaw = wrap_angles(p.yaw + 0.5 * drift_s * p.yaw_rate)
     if var_pos > 0:
         p.xy[:, 0] += rng.standard_normal(n) * np.sqrt(var_pos)
         p.xy[:, 1] += rng.standard_normal(n) * np.sqrt(var_pos)
     if var_yaw > 0:
-        p.yaw = wrap_angle(p.yaw + rng.standard_normal(n) * np.sqrt(var_yaw))
+        p.yaw = wrap_angles(p.yaw + rng.standard_normal(n) * np.sqrt(var_yaw))

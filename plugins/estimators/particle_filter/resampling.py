@@ -16,7 +16,9 @@ from typing import Literal
 
 import numpy as np
 
-from .particles import Particles, normalise_log_weights
+from firenav_framework.capabilities.particles import Particles
+
+from .particles import normalise_log_weights
 
 __all__ = ["RESAMPLERS", "Resampler", "resample_indices", "replace_removed"]
 

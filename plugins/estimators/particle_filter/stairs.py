@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from .particles import Particles
+from firenav_framework.capabilities.particles import Particles
 
 __all__ = ["apply_stairs"]
 

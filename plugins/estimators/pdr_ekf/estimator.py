@@ -93,7 +93,6 @@ class PdrEkf(Estimator):
     name = "pdr_ekf"
     inputs = (Odometry, TagDetection, TagDeployment)
     outputs = {"pose": PoseEstimate}
-    provides = frozenset({"pdr_ekf"})
     needs_building = True
     Params = PdrEkfParams
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firenav_framework.angles import wrap_angle as wrap  # also imported from here
+from firenav_framework.geometry import wrap_angle as wrap  # also imported from here
 
 __all__ = ["I_E", "I_N", "I_Z", "I_LAMBDA", "I_DTHETA", "PdrFilter", "Update", "rot2",
            "drot2", "wrap"]

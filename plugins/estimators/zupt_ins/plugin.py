@@ -68,7 +68,6 @@ class ZuptIns(Estimator):
     name = "zupt_ins"
     inputs = (ImuBlock,)
     outputs = {"odometry": Odometry, "pose": PoseEstimate, "state": PoseEstimate}
-    provides = frozenset({"odometry"})
     Params = ZuptInsParams
 
     def __init__(self, params: ZuptInsParams, ctx):

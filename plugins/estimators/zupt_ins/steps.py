@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firenav_framework.angles import wrap_angle as wrap  # also imported from here
+from firenav_framework.geometry import wrap_angle as wrap  # also imported from here
 
 from . import eskf
 
