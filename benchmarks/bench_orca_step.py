@@ -33,11 +33,12 @@ import numpy as np
 from firenav_framework import Odometry, Range
 from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.testing import make_component
-from firenav_plugins.constraints.orca import (AnchorRangeConstraint, OrcaConstraint,
-                                              WallFollowConstraint)
-from firenav_plugins.constraints.orca.step_solver import WallGrid
 from firenav_framework.capabilities import OdometryStep
 from firenav_framework.geometry import Rigid2D
+from firenav_plugins.constraints.anchor_range import AnchorRangeConstraint
+from firenav_plugins.constraints.orca import OrcaConstraint
+from firenav_plugins.constraints.orca.step_solver import WallGrid
+from firenav_plugins.constraints.wall_follow import WallFollowConstraint
 
 R, TAU, STEP, DT = 0.25, 2.0, 1.3, 1.0
 NONE2, NONE1 = np.zeros((0, 2)), np.zeros(0)

@@ -35,11 +35,11 @@ from bench_wall_crossing import numpy_all_pairs  # noqa: E402
 from firenav_framework.building import bundled_plan, load_building  # noqa: E402
 from firenav_framework.building.search_patterns import extract_search_patterns  # noqa: E402
 from firenav_framework.testing import make_component  # noqa: E402
-from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcp  # noqa: E402
+from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcpConstraint  # noqa: E402
 from firenav_plugins.constraints.search_pattern_icp.comparison import (  # noqa: E402
     Observations, PatternComparison)
 from firenav_plugins.constraints.search_pattern_icp.principal import principal_rotation  # noqa: E402
-from firenav_plugins.constraints.wall_crossing import WallCrossing  # noqa: E402
+from firenav_plugins.constraints.wall_crossing import WallCrossingConstraint  # noqa: E402
 from firenav_plugins.estimators.particle_filter import ParticleFilter  # noqa: E402
 from tests.pf.synthetic import drifting_walk  # noqa: E402
 
@@ -95,7 +95,7 @@ class ReferenceComparison(PatternComparison):
                             rmse=e.reshape(-1), floor=self.entry_floor)
 
 
-class ReferenceIcp(SearchPatternIcp):
+class ReferenceIcp(SearchPatternIcpConstraint):
     name = "search_pattern_icp_reference"
 
     @property
@@ -106,7 +106,7 @@ class ReferenceIcp(SearchPatternIcp):
         return self._comparison
 
 
-class ReferenceWalls(WallCrossing):
+class ReferenceWalls(WallCrossingConstraint):
     name = "wall_crossing_reference"
 
     def log_likelihood(self, step):
@@ -138,7 +138,8 @@ def run(building, odometry: list, particles: int, reference: bool) -> tuple[floa
     """(simulated seconds, wall seconds, counts) of one filter over all agents' odometry."""
     pf, rec, stats = make_component(ParticleFilter, {"particles": particles, "init": "unknown"},
                                     building=building)
-    walls_cls, icp_cls = (ReferenceWalls, ReferenceIcp) if reference else (WallCrossing, SearchPatternIcp)
+    walls_cls, icp_cls = ((ReferenceWalls, ReferenceIcp) if reference else
+                          (WallCrossingConstraint, SearchPatternIcpConstraint))
     all_stats = [stats]
     for cls, cid in ((walls_cls, "walls"), (icp_cls, "icp")):
         c, _, cstats = make_component(cls, {}, building=building, cid=cid)

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["SegmentIndex", "segments_hit_bruteforce", "EPS"]
+__all__ = ["SegmentIndex", "segments_hit_bruteforce", "segments_near_sorted", "EPS"]
 
 #: Distance [m] below which a point counts as lying on a segment's line.
 EPS = 1e-9
@@ -423,3 +423,45 @@ def segments_hit_bruteforce(p0: np.ndarray, p1: np.ndarray,
     frac, which = _bruteforce(a, b, segs)
     hit = which >= 0
     return hit, np.where(hit, frac, np.nan), which
+
+
+@njit(cache=True)
+def segments_near_sorted(px, py, radius, segs, start, items, ox, oy, h, nx, ny, stamp, tag,
+                         out, dist2):
+    """:meth:`SegmentIndex.near` for compiled callers that ask once per step, nearest first.
+
+    Writes the indices of the segments within ``radius`` [m] of the point (px, py) to
+    ``out[:n]``, sorted by distance (equal distances: lower index first), and their
+    squared distances [m^2] to ``dist2[:n]``; returns n. The grid is the index's own:
+    ``segs`` = :attr:`SegmentIndex.segments`, ``(start, items)`` =
+    :attr:`SegmentIndex.cells`, ``(ox, oy)`` = ``origin``, ``h`` = ``cell``, ``(nx, ny)``
+    = ``shape``. ``stamp`` (W,) int64 marks the segments already seen by query ``tag``:
+    with a new tag per query the buffer never needs clearing. ``out`` and ``dist2`` hold
+    W entries. Nothing is allocated.
+    """
+    i0 = max(int(math.floor((px - radius - ox) / h)), 0)
+    i1 = min(int(math.floor((px + radius - ox) / h)), nx - 1)
+    j0 = max(int(math.floor((py - radius - oy) / h)), 0)
+    j1 = min(int(math.floor((py + radius - oy) / h)), ny - 1)
+    n = 0
+    r2 = radius * radius
+    for j in range(j0, j1 + 1):
+        for i in range(i0, i1 + 1):
+            c = j * nx + i
+            for k in range(start[c], start[c + 1]):
+                w = items[k]
+                if stamp[w] == tag:
+                    continue
+                stamp[w] = tag
+                d2, _ = _point_seg_dist2(px, py, segs[w, 0, 0], segs[w, 0, 1],
+                                         segs[w, 1, 0], segs[w, 1, 1])
+                if d2 <= r2:
+                    m = n          # insertion sort: a step's neighbourhood holds few walls
+                    while m > 0 and (dist2[m - 1] > d2 or (dist2[m - 1] == d2 and out[m - 1] > w)):
+                        dist2[m] = dist2[m - 1]
+                        out[m] = out[m - 1]
+                        m -= 1
+                    dist2[m] = d2
+                    out[m] = w
+                    n += 1
+    return n

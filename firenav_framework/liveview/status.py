@@ -23,9 +23,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..contract import Params, param
 from ..messages import Diagnostic, PoseEstimate
 
 FLAGS = ("stale", "untrusted", "man_down")
+
+
+class StatusParams(Params):
+    """When a firefighter is shown stale or in alarm: the parameters every sink that
+    shows the status shares (``live_view``, ``mavlink_out``)."""
+
+    stale_after: float = param(10.0, unit="s", gt=0, description="no pose for this long "
+                               "marks the track stale (a silent device does at once)")
+    man_down_after: float = param(30.0, unit="s", gt=0, description="no motion for this "
+                                  "long raises the man-down alarm (NFPA 1982 PASS: 30 s)")
+    still_radius: float = param(0.5, unit="m", gt=0, description="moving less than this "
+                                "counts as no motion")
 
 
 @dataclass
@@ -52,6 +65,12 @@ class StatusTracker:
         self.still_radius = still_radius
         self.agents: dict[str, AgentStatus] = {}
         self.now = -math.inf
+
+    @classmethod
+    def from_params(cls, p: StatusParams) -> "StatusTracker":
+        """A tracker with the thresholds of a sink's :class:`StatusParams`."""
+        return cls(stale_after=p.stale_after, man_down_after=p.man_down_after,
+                   still_radius=p.still_radius)
 
     def _get(self, agent: str) -> AgentStatus:
         st = self.agents.get(agent)

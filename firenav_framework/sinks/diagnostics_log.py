@@ -3,12 +3,11 @@ from __future__ import annotations
 
 import json
 
-from ..contract import param, Params
+from ..contract import FileSink, Params, param
 from ..messages import Diagnostic
-from ..contract import FileSink
 
 
-class DiagnosticsLog(FileSink):
+class DiagnosticsLogSink(FileSink):
     """Append every diagnostic to a JSON-lines file for the incident log."""
 
     name = "diagnostics_log"
@@ -31,4 +30,3 @@ class DiagnosticsLog(FileSink):
     def finish(self) -> None:
         if self._fh is not None:
             self._fh.close()
-PLUGINS = [DiagnosticsLog]

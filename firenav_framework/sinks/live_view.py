@@ -5,27 +5,11 @@ import sys
 
 from ..contract import Params, Sink, param
 from ..liveview.server import LiveViewServer, ViewState, building_json
-from ..liveview.status import StatusTracker
+from ..liveview.status import StatusParams, StatusTracker
 from ..messages import Diagnostic, PoseEstimate, Tick
 
 
-class StatusParams(Params):
-    """When a firefighter is shown stale or in alarm (shared with mavlink_out)."""
-
-    stale_after: float = param(10.0, unit="s", gt=0, description="no pose for this long "
-                               "marks the track stale (a silent device does at once)")
-    man_down_after: float = param(30.0, unit="s", gt=0, description="no motion for this "
-                                  "long raises the man-down alarm (NFPA 1982 PASS: 30 s)")
-    still_radius: float = param(0.5, unit="m", gt=0, description="moving less than this "
-                                "counts as no motion")
-
-
-def make_tracker(p: StatusParams) -> StatusTracker:
-    return StatusTracker(stale_after=p.stale_after, man_down_after=p.man_down_after,
-                         still_radius=p.still_radius)
-
-
-class LiveView(Sink):
+class LiveViewSink(Sink):
     """Browser view: floor plan, tracks, positions with 95 % ellipses, stale/alarm states, timeline."""
 
     name = "live_view"
@@ -44,7 +28,8 @@ class LiveView(Sink):
         return 1.0  # the status clock (stale / man-down) advances with the timeline
 
     def start(self) -> None:
-        self.state = ViewState(make_tracker(self.params), max_points=self.params.max_points)
+        self.state = ViewState(StatusTracker.from_params(self.params),
+                               max_points=self.params.max_points)
         try:
             self.state.building = building_json(self.ctx.building)
         except RuntimeError:  # no building in this pipeline: tracks on a blank grid
@@ -66,5 +51,3 @@ class LiveView(Sink):
     def finish(self) -> None:
         self.server.close()
 
-
-PLUGINS = [LiveView]

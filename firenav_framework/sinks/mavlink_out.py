@@ -17,10 +17,9 @@ import math
 import numpy as np
 
 from ..contract import Sink, param
-from ..liveview.status import StatusTracker
+from ..liveview.status import StatusParams, StatusTracker
 from ..messages import Diagnostic, PoseEstimate, Tick
 from ..transports.mavlink_link import mavutil
-from .live_view import StatusParams, make_tracker
 
 #: ODOMETRY pose_covariance is the upper triangle of the 6x6 (x, y, z, roll, pitch, yaw)
 #: covariance, row by row (21 values); here the index pairs in our 4x4 (x, y, z, heading)
@@ -46,7 +45,7 @@ def yaw_quaternion(yaw: float) -> list[float]:
     return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
 
 
-class MavlinkOut(Sink):
+class MavlinkOutSink(Sink):
     """Send each firefighter's pose to a ground station as its own MAVLink system (LOCAL_POSITION_NED, ODOMETRY)."""
 
     name = "mavlink_out"
@@ -70,7 +69,7 @@ class MavlinkOut(Sink):
         mu = mavutil()
         self.mavlink = mu.mavlink
         self.conn = mu.mavlink_connection(self.params.url, source_system=255, input=False)
-        self.tracker: StatusTracker = make_tracker(self.params)
+        self.tracker = StatusTracker.from_params(self.params)
         self.sysids: dict[str, int] = dict(self.params.system_ids)
         self.senders: dict[str, object] = {}
         self.last: dict[str, PoseEstimate] = {}
@@ -149,5 +148,3 @@ class MavlinkOut(Sink):
     def finish(self) -> None:
         self.conn.close()
 
-
-PLUGINS = [MavlinkOut]

@@ -22,9 +22,8 @@ import typing
 
 import numpy as np
 
-from ..contract import Params, param
+from ..contract import FileSink, Params, param
 from ..messages import Message
-from ..contract import FileSink
 
 _JSON_TYPES = {float: {"type": ["number", "null"]}, int: {"type": "integer"},
                str: {"type": "string"}, bool: {"type": "boolean"}}
@@ -80,7 +79,7 @@ def message_json(msg: Message) -> bytes:
     return json.dumps(body, separators=(",", ":"), allow_nan=False).encode()
 
 
-class McapRecorder(FileSink):
+class McapRecorderSink(FileSink):
     """Record streams (poses with covariance, diagnostics, ...) to an MCAP file for robotics tools."""
 
     name = "mcap_recorder"
@@ -140,5 +139,3 @@ class McapRecorder(FileSink):
         self._writer.finish()
         self._fh.close()
 
-
-PLUGINS = [McapRecorder]

@@ -5,10 +5,9 @@ from typing import Any
 
 import numpy as np
 
-from ..contract import Params, param
+from ..contract import FileSink, Params, param
 from ..messages import GroundTruth, PoseEstimate
 from ..tracks import Track, TrackStore
-from ..contract import FileSink
 
 
 def floors_of(track: Track, building: Any) -> np.ndarray:
@@ -28,7 +27,7 @@ def _on_floor(xy: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
-class TrackPlot(FileSink):
+class TrackPlotSink(FileSink):
     """Plot estimated tracks (and ground truth when present) over the building to a PNG."""
 
     name = "track_plot"
@@ -103,5 +102,3 @@ class TrackPlot(FileSink):
             ax.add_patch(Ellipse(p[:2], axes_len[1], axes_len[0], angle=ang, fill=False,
                                  color=color, lw=0.7, alpha=0.7))
 
-
-PLUGINS = [TrackPlot]

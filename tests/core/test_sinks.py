@@ -7,8 +7,8 @@ import numpy as np
 
 from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.messages import Diagnostic, PoseEstimate
-from firenav_framework.sinks.diagnostics_log import DiagnosticsLog
-from firenav_framework.sinks.track_plot import TrackPlot, floors_of
+from firenav_framework.sinks.diagnostics_log import DiagnosticsLogSink
+from firenav_framework.sinks.track_plot import TrackPlotSink, floors_of
 from firenav_framework.testing import check_plugin, run_component
 from firenav_framework.tracks import TrackStore
 
@@ -31,7 +31,7 @@ def test_floors_come_from_the_estimate_or_else_from_height():
 def test_track_plot_writes_a_png_per_run(tmp_path):
     building = load_building(bundled_plan("three_storey"))
     msgs = [("pf.pose", pose(t, 0.0 if t < 5 else 3.5)) for t in range(10)]
-    check_plugin(TrackPlot, {"ellipse_every": 2.0}, sample_input=msgs, building=building,
+    check_plugin(TrackPlotSink, {"ellipse_every": 2.0}, sample_input=msgs, building=building,
                  output_dir=tmp_path)
     png = (tmp_path / "tracks.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
@@ -40,7 +40,7 @@ def test_track_plot_writes_a_png_per_run(tmp_path):
 def test_diagnostics_log_writes_one_json_object_per_line(tmp_path):
     d = Diagnostic(t=1.5, agent="ff2", component="pf", level="warning", code="map_error",
                    text="estimate not trustworthy")
-    run_component(DiagnosticsLog, {}, [("pf.diagnostics", d)], output_dir=tmp_path)
+    run_component(DiagnosticsLogSink, {}, [("pf.diagnostics", d)], output_dir=tmp_path)
     (line,) = (tmp_path / "diagnostics.jsonl").read_text().splitlines()
     assert json.loads(line) == {"t": 1.5, "stream": "pf.diagnostics", "component": "pf",
                                 "agent": "ff2", "level": "warning", "code": "map_error",

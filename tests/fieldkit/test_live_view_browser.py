@@ -15,7 +15,7 @@ import pytest
 
 from firenav_framework.building import load_building, bundled_plan
 from firenav_framework.messages import Diagnostic, PoseEstimate, Tick
-from firenav_framework.sinks.live_view import LiveView
+from firenav_framework.sinks.live_view import LiveViewSink
 from firenav_framework.testing import make_component
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -37,7 +37,7 @@ def _poses():
 def view(tmp_path):
     plan = bundled_plan("office_loop")
     building = load_building(plan)
-    sink, _, _ = make_component(LiveView, {"port": 0, "push_period": 0.05}, building=building,
+    sink, _, _ = make_component(LiveViewSink, {"port": 0, "push_period": 0.05}, building=building,
                                 output_dir=tmp_path)
     sink.start()
     yield sink

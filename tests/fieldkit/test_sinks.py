@@ -11,8 +11,8 @@ import pytest
 
 from firenav_framework.liveview.status import StatusTracker
 from firenav_framework.messages import Diagnostic, PoseEstimate, Tick
-from firenav_framework.sinks.mavlink_out import MavlinkOut, ned_covariance
-from firenav_framework.sinks.mcap_recorder import McapRecorder
+from firenav_framework.sinks.mavlink_out import MavlinkOutSink, ned_covariance
+from firenav_framework.sinks.mcap_recorder import McapRecorderSink
 from firenav_framework.testing import make_component
 from firenav_framework.transports.mavlink_link import mavutil
 
@@ -72,7 +72,7 @@ def test_mavlink_out_each_firefighter_is_a_system(tmp_path):
     port = free_port()
     gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     gcs.bind(("127.0.0.1", port))
-    sink, _, _ = make_component(MavlinkOut, {"url": f"udpout:127.0.0.1:{port}",
+    sink, _, _ = make_component(MavlinkOutSink, {"url": f"udpout:127.0.0.1:{port}",
                                              "system_ids": {"ff2": 42}}, output_dir=tmp_path)
     sink.start()
     sink.handle("ins.pose", pose(1.0, "ff1", 3.0, 4.0, 1.5, heading=0.3))
@@ -112,7 +112,7 @@ def test_mcap_has_schemas_and_survives_truncation(tmp_path):
     from mcap.reader import make_reader
     from mcap.reader import NonSeekingReader
 
-    sink, _, _ = make_component(McapRecorder, {"chunk_kb": 1}, output_dir=tmp_path)
+    sink, _, _ = make_component(McapRecorderSink, {"chunk_kb": 1}, output_dir=tmp_path)
     sink.start()
     poses = [pose(0.1 * k, f"ff{k % 3}", k, -k, heading=0.01 * k) for k in range(300)]
     for p in poses:

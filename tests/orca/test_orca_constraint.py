@@ -14,8 +14,7 @@ import pytest
 from firenav_framework.building import Anchor, Door
 from firenav_framework.testing import make_component
 from firenav_plugins.constraints.orca import OrcaConstraint
-from firenav_plugins.estimators.dead_reckoning import DeadReckoning
-from tests.orca.walker import YAW, Walker, building
+from tests.orca.walker import YAW, DeadReckoning, Walker, building
 
 WALL = [[[-50.0, 0.0], [50.0, 0.0]]]
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from firenav_framework.building import Door, Floor
-from firenav_plugins.constraints.orca import approach_angle, classify_rotation, line_crossing
+from firenav_plugins.constraints.orca.rules import approach_angle, classify_rotation, line_crossing
 from firenav_plugins.constraints.orca.doors import DoorTable, RangeFix
 from firenav_framework.geometry import Rigid2D
 

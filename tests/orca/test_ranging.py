@@ -9,7 +9,7 @@ import pytest
 from firenav_framework import Range
 from firenav_framework.building import Anchor
 from firenav_framework.testing import check_plugin
-from firenav_plugins.constraints.orca import AnchorRangeConstraint
+from firenav_plugins.constraints.anchor_range import AnchorRangeConstraint
 from tests.orca.walker import Walker, building
 
 ANCHOR = Anchor("uwb_start", "uwb", np.array([0.0, 0.0, 1.0]), 0)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from firenav_framework.testing import check_plugin
-from firenav_plugins.constraints.orca import WallFollowConstraint
-from firenav_plugins.constraints.orca.wall_follow import wall_alongside
+from firenav_plugins.constraints.wall_follow import WallFollowConstraint
+from firenav_plugins.constraints.wall_follow.constraint import wall_alongside
 from tests.orca.walker import Walker, building
 
 DEG = math.radians

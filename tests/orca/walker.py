@@ -12,9 +12,12 @@ import numpy as np
 
 from firenav_framework import Odometry, Range
 from firenav_framework.building import Building, Floor
+from firenav_framework.registry import default_registry
 from firenav_framework.testing import make_component
 from firenav_plugins.constraints.orca import OrcaConstraint
-from firenav_plugins.estimators.dead_reckoning import DeadReckoning
+
+#: The estimator the constraints attach to, found by its pipeline name.
+DeadReckoning = default_registry().get("estimator", "dead_reckoning").cls
 
 YAW = 1.1          # the INS frame's arbitrary yaw [rad]
 COV = np.diag([1e-4, 1e-4, 1e-4, 1e-5])

@@ -11,8 +11,8 @@ from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.building.search_patterns import extract_search_patterns
 from firenav_framework.building.sketch import PlanSketch
 from firenav_framework.testing import check_plugin, make_component
-from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcp
-from firenav_plugins.constraints.wall_crossing import WallCrossing
+from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcpConstraint
+from firenav_plugins.constraints.wall_crossing import WallCrossingConstraint
 from firenav_framework.capabilities import ParticleConstraint, Particles
 from firenav_plugins.estimators.particle_filter import ParticleFilter
 from firenav_plugins.estimators.particle_filter.map_error import SpreadMonitor
@@ -66,7 +66,7 @@ def dead_reckoning_errors(walk):
 
 def test_walls_beat_odometry_alone_from_a_known_start(flat, search_walk):
     rec, counts = run(flat, search_walk, {"particles": 300, "init": "truth", "seed": 1},
-                      [(WallCrossing, {})])
+                      [(WallCrossingConstraint, {})])
     _, err = errors(rec.on("pose"), search_walk)
     dr = dead_reckoning_errors(search_walk)
     rmse, dr_rmse = math.sqrt(np.mean(err ** 2)), math.sqrt(np.mean(dr ** 2))
@@ -79,8 +79,9 @@ def test_search_patterns_find_an_unknown_start_where_walls_alone_do_not(flat, se
     """§V-C, Fig. 8 (b): without prior on the start, the conventional filter (walls only)
     loses itself; with pseudo-observations and resampling it settles to about 1 m."""
     params = {"particles": 500, "init": "unknown", "seed": 2}
-    rec, counts = run(flat, search_walk, params, [(WallCrossing, {}), (SearchPatternIcp, {})])
-    walls_only, _ = run(flat, search_walk, params, [(WallCrossing, {})])
+    rec, counts = run(flat, search_walk, params,
+                      [(WallCrossingConstraint, {}), (SearchPatternIcpConstraint, {})])
+    walls_only, _ = run(flat, search_walk, params, [(WallCrossingConstraint, {})])
     poses = rec.on("pose")
     t, err = errors(poses, search_walk)
     late = t > t[0] + 150.0       # the paper's ~2.5 min settling time
@@ -206,8 +207,8 @@ def test_plugin_conformance(flat):
     check_plugin(ParticleFilter, {"particles": 50}, sample_input=[("odo", m) for m in straight_walk(4)]
                  + [("truth", GroundTruth(t=5.0, agent="ff1", position=np.zeros(3)))],
                  building=flat)
-    check_plugin(WallCrossing, building=flat)
-    check_plugin(SearchPatternIcp, building=flat)
+    check_plugin(WallCrossingConstraint, building=flat)
+    check_plugin(SearchPatternIcpConstraint, building=flat)
 
 
 @pytest.mark.parametrize("noise_while_still", [True, False])
@@ -220,7 +221,7 @@ def test_standing_still_spreads_the_cloud_only_with_noise_while_still(flat, nois
                                                  "particles": 400,
                                                  "noise_while_still": noise_while_still},
                                 building=flat)
-    pf.constraints.append(make_component(WallCrossing, {}, building=flat, cid="walls")[0])
+    pf.constraints.append(make_component(WallCrossingConstraint, {}, building=flat, cid="walls")[0])
     pos, delta = np.zeros(3), np.array([0.002, 0.0, 0.0])
     for k in range(1, 61):
         pos = pos + delta
@@ -250,7 +251,7 @@ def test_yaw_rate_state_follows_an_uncalibrated_gyro(flat, search_walk):
     for sigma in (0.0, 0.3):
         pf, rec, _ = make_component(ParticleFilter, {"particles": 500, "init": "truth", "seed": 3,
                                                      "yaw_rate_sigma_dps": sigma}, building=flat)
-        pf.constraints.append(make_component(WallCrossing, {}, building=flat, cid="walls")[0])
+        pf.constraints.append(make_component(WallCrossingConstraint, {}, building=flat, cid="walls")[0])
         for stream, msg in walk.messages():
             pf.handle(stream, msg)
         _, err = errors(rec.on("pose"), walk)

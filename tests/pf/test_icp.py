@@ -170,10 +170,10 @@ def _step_after_walking(path_map: np.ndarray, cloud_at: np.ndarray, spread: floa
 ])
 def test_pseudo_observation_resampling_gate(gate, spread, resampled):
     from firenav_framework.testing import make_component
-    from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcp
+    from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcpConstraint
 
     b = small_plan().build()
-    icp, _, stats = make_component(SearchPatternIcp, {"length_m": 6.0, "resample_above_m2": gate},
+    icp, _, stats = make_component(SearchPatternIcpConstraint, {"length_m": 6.0, "resample_above_m2": gate},
                                    building=b)
     icp.start()
     path = icp.comparison.sub.points[3]                # (4.5, .5) ... round the side room

@@ -10,7 +10,7 @@ import shapely
 from firenav_framework import Odometry
 from firenav_framework.building.sketch import PlanSketch
 from firenav_framework.testing import make_component
-from firenav_plugins.constraints.wall_crossing import WallCrossing
+from firenav_plugins.constraints.wall_crossing import WallCrossingConstraint
 from firenav_framework.capabilities import ParticleConstraint, Particles, ParticleStep
 from firenav_plugins.estimators.particle_filter import ParticleFilter
 from firenav_framework.capabilities import OdometryHistory
@@ -57,7 +57,7 @@ def random_step(building, n, rng):
 def test_exactly_the_crossing_moves_are_penalised(building, mode, penalty):
     rng = np.random.default_rng(7)
     step = random_step(building, 5000, rng)
-    wc, _, stats = make_component(WallCrossing, {"mode": mode, "factor": 0.05, "outside": "allow"},
+    wc, _, stats = make_component(WallCrossingConstraint, {"mode": mode, "factor": 0.05, "outside": "allow"},
                                   building=building)
     ll = wc.log_likelihood(step)
     want = brute_force(building, step.before.floor, step.before.xy, step.particles.xy)
@@ -77,7 +77,7 @@ def test_exactly_the_crossing_moves_are_penalised(building, mode, penalty):
 def test_leaving_the_building_counts_as_crossing(building):
     rng = np.random.default_rng(8)
     step = random_step(building, 5000, rng)
-    wc, _, _ = make_component(WallCrossing, {}, building=building)     # outside: remove
+    wc, _, _ = make_component(WallCrossingConstraint, {}, building=building)     # outside: remove
     crossed = brute_force(building, step.before.floor, step.before.xy, step.particles.xy)
     end = step.particles.xy
     outside = ~shapely.intersects_xy(shapely.box(0, 0, 8, 3), end[:, 0], end[:, 1])
@@ -102,7 +102,7 @@ class Probe(ParticleConstraint):
 def test_filter_keeps_only_particles_whose_moves_did_not_cross(building):
     pf, rec, stats = make_component(ParticleFilter, {"particles": 3000, "init": "unknown",
                                                      "resample_below_ess": 0.0}, building=building)
-    wc, _, _ = make_component(WallCrossing, {}, building=building, cid="walls")
+    wc, _, _ = make_component(WallCrossingConstraint, {}, building=building, cid="walls")
     probe, _, _ = make_component(Probe, {}, building=building, cid="probe")
     pf.constraints += [wc, probe]
     pos = np.zeros(3)

@@ -1,11 +1,11 @@
-"""ORCA collision-avoidance map matching as a constraint on dead-reckoned odometry.
+"""The ``orca`` constraint: ORCA collision-avoidance map matching of dead-reckoned steps.
 
 Implements §2.2 of the ORCA map-matching paper (Algorithm 1, lines 20-24) on the steps
 of ``dead_reckoning``. For each step the agent, a disc at its corrected position, would
 move to the new INS position (eq. 7 velocity). If that move collides with a wall
 (or with a team member, optionally), the ORCA half-planes of the nearby walls give the
-set of collision-free velocities (eqs. 3-6), and the paper's rules read the angle at
-which the step meets the wall it touches first:
+set of collision-free velocities (eqs. 3-6, :mod:`.step_solver`), and the paper's rules
+read the angle at which the step meets the wall it touches first (:mod:`.rules`):
 
 * up to ``max_rotation`` (30 deg): a heading error. ORCA's correction angle theta (the
   smallest rotation of the INS velocity into the collision-free set, Figure 4) is
@@ -13,7 +13,8 @@ which the step meets the wall it touches first:
   rotating this and every later step about the agent's position;
 * within ``door_tolerance`` (15 deg) of 90 deg: the agent went through a door the path
   missed. It is moved to the door in that wall that best fits the UWB range(s) to the
-  anchor(s) (not simply the nearest door), by a translation in the update matrix;
+  anchor(s) (:mod:`.doors`; not simply the nearest door), by a translation in the
+  update matrix;
 * anything else: the wall holds the agent (it moves with the ORCA velocity closest to
   the INS velocity) and no update is stored;
 * a speed above ``max_speed`` between the corrected agent and the INS position: the
@@ -23,23 +24,20 @@ For a sliding contact theta equals that angle; near a wall's end (a door jamb) O
 slip past the end with a small rotation although the step ran square into the wall,
 which is why the rule is read on the angle of the step to the wall.
 
-Guards, not in the paper, keep position errors from being taken for heading
-errors or doors (each can be switched off; without them the rules make the simulated
-corridor tests worse than the INS alone, see benchmarks/bench_orca_corridor.py):
+Guards, not in the paper, keep position errors from being taken for heading errors or
+doors (each can be switched off; docs/orca.md shows what each one buys):
 
 * ``turn_guard``: no rotation is stored during a turn (a heading change or a change of
   step direction over the last two steps), where a stride rounding a corner runs into
   the wall although the heading is fine; the lateral offset of such a shallow contact
   (up to ``max_rotation``) is absorbed by a translation instead. A turn square into a
   wall is only held: translating the path with the agent there would hide a wrong
-  compartment from the reset rule (orca_test3 seed 1: held at a table, the path was
-  dragged 3 m off);
+  compartment from the reset rule;
 * ``door_range_gate``: a door is only taken if its expected range to the anchor(s)
   fits the measured one (the nearest door at the end of a corridor is often no door
   the firefighter went through); with ``door_needs_range`` no door is taken without
-  a fresh range: a walker overshooting a room's corner hits the wall square too
-  (search_flat_left, no UWB: the nearest door 2.6 m away was taken, and the track got
-  lost in the wrong rooms); a door the track really missed is caught by the reset;
+  a fresh range, since a walker overshooting a room's corner hits the wall square too;
+  a door the track really missed is caught by the reset rule;
 * ``door_pass``: a step whose line goes through a doorway while the disc clips a jamb
   is centred in the door rather than slid past the jamb;
 * ``min_step``: a move shorter than this (a shuffle while standing at a check point)
@@ -65,63 +63,23 @@ from typing import Literal
 
 import numpy as np
 
-from firenav_framework import Params, PerAgent, Range, param
+from firenav_framework import Angle, Params, PerAgent, Range, param
+from firenav_framework.building import Floor
 from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
-from .anchors import AnchorSite
+from ..anchor_ranges import AnchorRanges
+from ..turn_history import TurnHistory
 from .doors import DoorTable, RangeFix
+from .rules import approach_angle, classify_rotation, line_crossing
 from .step_solver import FREE, WallGrid
-from .turns import TurnHistory
 
-__all__ = ["OrcaConstraint", "classify_rotation", "approach_angle", "line_crossing"]
+__all__ = ["OrcaConstraint"]
 
-#: Angles this close to a threshold [rad] count as on it (bands are inclusive).
-_ANGLE_EPS = 1e-9
 #: Most team members an agent avoids at once (the nearest are not chosen: all recent ones
 #: up to this many, in name order).
 MAX_TEAM = 64
-
-
-def approach_angle(move: np.ndarray, wall: np.ndarray) -> float:
-    """Angle [rad] in [0, pi/2] between a step (2,) and a wall segment (2, 2)."""
-    e = wall[1] - wall[0]
-    c = abs(float(move[0] * e[0] + move[1] * e[1]))
-    s = abs(float(move[0] * e[1] - move[1] * e[0]))
-    return math.atan2(s, c)
-
-
-def line_crossing(pos: np.ndarray, move: np.ndarray, wall: np.ndarray) -> float:
-    """Fraction in [0, 1] of the step ``pos`` -> ``pos + move`` where it meets the wall's
-    line (1 when it stops short of it)."""
-    e = wall[1] - wall[0]
-    n = np.array([-e[1], e[0]])
-    h0 = float((pos - wall[0]) @ n)
-    dh = float(move @ n)
-    if h0 * dh >= 0.0 or dh == 0.0:
-        return 0.0 if h0 == 0.0 else 1.0
-    return min(1.0, -h0 / dh)
-
-
-def classify_rotation(theta: float, min_rotation: float, max_rotation: float,
-                      door_angle: float, door_tolerance: float) -> str:
-    """The paper's reading of a correction angle ``theta`` [rad] (§2.2).
-
-    ``"rotation"`` for a heading error to store (min..max), ``"door"`` for a missed door
-    (door_angle +- door_tolerance), ``"small"`` below min, ``"blocked"`` otherwise
-    (and for NaN: no rotation at the walking speed avoids the walls).
-    """
-    a = abs(theta)
-    if math.isnan(a):
-        return "blocked"
-    if a < min_rotation - _ANGLE_EPS:
-        return "small"
-    if a <= max_rotation + _ANGLE_EPS:
-        return "rotation"
-    if abs(a - door_angle) <= door_tolerance + _ANGLE_EPS:
-        return "door"
-    return "blocked"
 
 
 @dataclass
@@ -132,6 +90,15 @@ class _Agent:
     dt: float = 1.0                         # ... its duration [s]
     t: float | None = None                  # ... and time [s]
     turns: TurnHistory = field(default_factory=TurnHistory)
+
+
+@dataclass(frozen=True)
+class _FloorTables:
+    """One floor, its walls as the ORCA kernel's grid and its doors as arrays."""
+
+    floor: Floor
+    grid: WallGrid
+    doors: DoorTable
 
 
 class OrcaConstraint(OdometryCorrection):
@@ -147,13 +114,13 @@ class OrcaConstraint(OdometryCorrection):
         time_horizon: float = param(2.0, unit="s", gt=0, description="obstacle time horizon "
                                     "tau of the velocity obstacle (eq. 3); never below the "
                                     "step duration")
-        min_rotation: float = param(math.radians(2.0), unit="rad", ge=0, description="smallest "
+        min_rotation: Angle = param(math.radians(2.0), unit="rad", ge=0, description="smallest "
                                     "correction stored in the update matrix (2 deg, §2.2)")
-        max_rotation: float = param(math.radians(30.0), unit="rad", gt=0, description="largest "
+        max_rotation: Angle = param(math.radians(30.0), unit="rad", gt=0, description="largest "
                                     "correction taken as a heading error (30 deg, §2.2)")
-        door_angle: float = param(math.radians(90.0), unit="rad", gt=0, description="correction "
+        door_angle: Angle = param(math.radians(90.0), unit="rad", gt=0, description="correction "
                                   "angle that means a missed door (90 deg, §2.2)")
-        door_tolerance: float = param(math.radians(15.0), unit="rad", ge=0, description="+- band "
+        door_tolerance: Angle = param(math.radians(15.0), unit="rad", ge=0, description="+- band "
                                       "around door_angle (15 deg, §2.2)")
         max_speed: float = param(2.5, unit="m/s", gt=0, description="speed between the corrected "
                                  "and the INS position above which the agent is in the wrong "
@@ -171,7 +138,7 @@ class OrcaConstraint(OdometryCorrection):
                                        "hit is as likely a walker overshooting a room's "
                                        "corner, and a door the track really missed is caught "
                                        "by the reset rule")
-        turn_guard: float | None = param(math.radians(30.0), unit="rad", gt=0, description=
+        turn_guard: Angle | None = param(math.radians(30.0), unit="rad", gt=0, description=
                                          "no rotation is stored while the INS heading or the "
                                          "step direction turned more than this over the last "
                                          "two steps (null: off)")
@@ -200,12 +167,13 @@ class OrcaConstraint(OdometryCorrection):
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
         self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
-        self._grids: dict[int, WallGrid] = {}
-        self._doors: dict[int, DoorTable] = {}
-        self._site: AnchorSite | None = None
+        self._floors: dict[int, _FloorTables] = {}
+        self._building = None
+        self._anchors: AnchorRanges | None = None
 
     def start(self) -> None:
-        self._site = AnchorSite(self.ctx.building)
+        self._building = self.ctx.building
+        self._anchors = AnchorRanges(self._building)
         self._no_team = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
 
     def reset(self, agent: str) -> None:
@@ -215,13 +183,14 @@ class OrcaConstraint(OdometryCorrection):
     def handle(self, stream: str, msg: Range) -> None:
         if not isinstance(msg, Range):
             return
-        anchor = self._site.usable_anchor(msg, self.ctx.count)
+        anchor = self._anchors.anchor_of(msg, self.ctx.count)
         if anchor is None:
             return
         self.agents[msg.agent].ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
 
     def _fresh_ranges(self, agent: _Agent, t: float) -> list[RangeFix]:
-        return [RangeFix(self._site.positions[a], r, s) for a, (tr, r, s) in sorted(agent.ranges.items())
+        return [RangeFix(self._anchors.positions[a], r, s)
+                for a, (tr, r, s) in sorted(agent.ranges.items())
                 if abs(t - tr) <= self.params.range_max_age]
 
     # -- the odometry_correction protocol ----------------------------------------------
@@ -230,12 +199,12 @@ class OrcaConstraint(OdometryCorrection):
         me = self.agents[step.agent]
         turning = self._turning(me, step)
         pos, target = step.prev[:2], step.proposed[:2]
-        floor_idx = self._site.floor_index(step.prev[2])
+        here = self._tables(self._building.floor_of_z(step.prev[2]))
         if math.hypot(target[0] - pos[0], target[1] - pos[1]) > p.max_speed * step.dt:
             # Wrong compartment: the agent lags implausibly far behind the INS (§2.2).
             return self._record(me, step, StepCorrection(position=step.proposed.copy(),
                                                          jump=True, event="orca_reset"))
-        grid = self._grid(floor_idx)
+        grid = here.grid
         code, v_orca, theta, wall, frac = grid.step(pos, target, step.dt, p.radius,
                                                     p.time_horizon, p.team_time_horizon,
                                                     *self._team(step))
@@ -247,18 +216,18 @@ class OrcaConstraint(OdometryCorrection):
                 position=_with_z(pos + step.dt * v_orca, step), event="orca_team"))
         move = target - pos
         if p.door_pass:
-            passed = self._door_table(floor_idx).passed(pos, target)
+            passed = here.doors.passed(pos, target)
             if passed is not None:
                 # the step goes through a doorway and the disc only clips a jamb
                 k, f = passed
                 return self._record(me, step, self._through_door(
-                    step, floor_idx, grid, pos, move, f, k, jump=False, event="orca_door_pass"))
+                    step, here, pos, move, f, k, jump=False, event="orca_door_pass"))
         kind = classify_rotation(approach_angle(move, grid.segs[wall]), p.min_rotation,
                                  p.max_rotation, p.door_angle, p.door_tolerance)
         if math.hypot(move[0], move[1]) < p.min_step:
             kind = "blocked"
         if kind == "door":
-            fix = self._door(me, step, floor_idx, grid, pos, move, wall)
+            fix = self._door(me, step, here, pos, move, wall)
             if fix is not None:
                 return self._record(me, step, fix)
             kind = "blocked"
@@ -292,19 +261,19 @@ class OrcaConstraint(OdometryCorrection):
             position=_with_z(moved, step), update=Rigid2D.rotation_about(stored, pos),
             event="orca_rotation"))
 
-    def _door(self, me: _Agent, step: OdometryStep, floor_idx: int, grid: WallGrid,
-              pos: np.ndarray, move: np.ndarray, wall: int) -> StepCorrection | None:
+    def _door(self, me: _Agent, step: OdometryStep, here: _FloorTables, pos: np.ndarray,
+              move: np.ndarray, wall: int) -> StepCorrection | None:
         """Missed-door rule: translate the path so that it crosses the chosen door."""
         p = self.params
-        doors = self._door_table(floor_idx)
-        seg = grid.segs[wall]
+        doors = here.doors
+        seg = here.grid.segs[wall]
         f = line_crossing(pos, move, seg)
         crossing = pos + f * move
         ranges = self._fresh_ranges(me, step.t)
         if not ranges and p.door_needs_range:
             self.ctx.count("orca_door_no_range")
             return None
-        tag_z = self._site.building.floors[floor_idx].z + p.tag_height
+        tag_z = here.floor.z + p.tag_height
         k = doors.choose(pos, crossing, move, seg, ranges, tag_z, p.door_search_radius,
                          p.door_line_tolerance)
         if k is None:
@@ -314,15 +283,14 @@ class OrcaConstraint(OdometryCorrection):
         if worst > p.door_range_gate:
             self.ctx.count("orca_door_range_misfit")
             return None
-        return self._through_door(step, floor_idx, grid, pos, move, f, k, jump=True,
-                                  event="orca_door")
+        return self._through_door(step, here, pos, move, f, k, jump=True, event="orca_door")
 
-    def _through_door(self, step: OdometryStep, floor_idx: int, grid: WallGrid,
-                      pos: np.ndarray, move: np.ndarray, f: float, k: int, jump: bool,
+    def _through_door(self, step: OdometryStep, here: _FloorTables, pos: np.ndarray,
+                      move: np.ndarray, f: float, k: int, jump: bool,
                       event: str) -> StepCorrection:
         """Translate the path so that the step crosses door ``k`` at its centre instead
         of at fraction ``f`` of the step."""
-        door = self._door_table(floor_idx).centers[k]
+        door = here.doors.centers[k]
         crossing = pos + f * move
         rest = (1.0 - f) * move
         # Cross the door along the step, unless that is blocked or the straight line from
@@ -330,18 +298,12 @@ class OrcaConstraint(OdometryCorrection):
         # the step comes with the next one, the update moving it as well), so that the
         # track itself goes through the door.
         end = door + rest
-        if grid.blocked(door, end, self.params.radius) or \
-                self._site.building.floors[floor_idx].crosses_wall(pos[None], end[None])[0]:
+        if here.grid.blocked(door, end, self.params.radius) or \
+                here.floor.crosses_wall(pos[None], end[None])[0]:
             end = door.copy()
         return StepCorrection(position=_with_z(end, step),
                               update=Rigid2D.translation(door - crossing), jump=jump,
                               event=event)
-
-    def _door_table(self, floor_idx: int) -> DoorTable:
-        doors = self._doors.get(floor_idx)
-        if doors is None:
-            doors = self._doors[floor_idx] = DoorTable(self._site.building.floors[floor_idx])
-        return doors
 
     def _turning(self, me: _Agent, step: OdometryStep) -> bool:
         """Did the walker turn more than ``turn_guard`` over this and the previous step?"""
@@ -373,12 +335,14 @@ class OrcaConstraint(OdometryCorrection):
         me.dt, me.t = step.dt, step.t
         return fix
 
-    def _grid(self, floor_idx: int) -> WallGrid:
-        grid = self._grids.get(floor_idx)
-        if grid is None:
-            grid = self._grids[floor_idx] = WallGrid(self._site.building.floors[floor_idx],
-                                                     max_agents=MAX_TEAM)
-        return grid
+    def _tables(self, floor_idx: int) -> _FloorTables:
+        """The walls and doors of floor ``floor_idx``, built on its first step."""
+        tables = self._floors.get(floor_idx)
+        if tables is None:
+            floor = self._building.floors[floor_idx]
+            tables = self._floors[floor_idx] = _FloorTables(
+                floor, WallGrid(floor, max_agents=MAX_TEAM), DoorTable(floor))
+        return tables
 
 
 def _with_z(xy: np.ndarray, step: OdometryStep) -> np.ndarray:

@@ -4,7 +4,8 @@ For each new INS position the agent (a disc of radius ``r`` at its corrected pos
 would move to, :func:`orca_step` checks whether the move touches a wall or another
 agent (Algorithm 1, line 22, ``IsCollision``) and, if so, returns the ORCA velocity
 closest to the INS velocity (line 23; §2.2 eqs. 3-7). Only the walls near the agent
-are visited, through the floor's uniform grid (the building model's
+are visited, through the building's spatial query
+(:func:`~firenav_framework.building.index.segments_near_sorted` on the floor's
 ``Floor.wall_index``), so the cost per step does not grow with the size of the floor.
 
 Everything here is one compiled call per step; :class:`WallGrid` holds the grid
@@ -16,6 +17,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from firenav_framework.building.index import segments_near_sorted
 
 from .velocity_obstacles import (agent_orca_lines, smallest_rotation, solve_velocity,
                                  wall_orca_lines)
@@ -86,58 +89,24 @@ def disc_contact(p0x, p0y, p1x, p1y, r, ax, ay, bx, by) -> float:
 
 
 @njit(cache=True)
-def gather_walls(px: float, py: float, reach: float, segs, start, items, ox, oy, h, nx, ny,
-                 stamp, tag, cand, dist) -> int:
-    """Walls within ``reach`` [m] of (px, py), nearest first, into ``cand``/``dist``.
-
-    ``stamp`` (W,) int64 marks walls already seen in this query (``tag`` is unique per
-    query, so the buffer never needs clearing). Returns the number found.
-    """
-    i0 = max(int(math.floor((px - reach - ox) / h)), 0)
-    i1 = min(int(math.floor((px + reach - ox) / h)), nx - 1)
-    j0 = max(int(math.floor((py - reach - oy) / h)), 0)
-    j1 = min(int(math.floor((py + reach - oy) / h)), ny - 1)
-    n = 0
-    r2 = reach * reach
-    for j in range(j0, j1 + 1):
-        for i in range(i0, i1 + 1):
-            c = j * nx + i
-            for k in range(start[c], start[c + 1]):
-                w = items[k]
-                if stamp[w] == tag:
-                    continue
-                stamp[w] = tag
-                d2 = _point_seg_dist2(px, py, segs[w, 0, 0], segs[w, 0, 1],
-                                      segs[w, 1, 0], segs[w, 1, 1])
-                if d2 < r2:
-                    # insertion sort: candidate lists are short
-                    m = n
-                    while m > 0 and (dist[m - 1] > d2 or (dist[m - 1] == d2 and cand[m - 1] > w)):
-                        dist[m] = dist[m - 1]
-                        cand[m] = cand[m - 1]
-                        m -= 1
-                    dist[m] = d2
-                    cand[m] = w
-                    n += 1
-    return n
-
-
-@njit(cache=True)
 def orca_step(pos, target, dt, radius, tau, tau_agents, segs, start, items, ox, oy, h, nx, ny,
-              stamp, tag, cand, dist, others_pos, others_vel, others_radius,
+              stamp, tag, cand, dist2, others_pos, others_vel, others_radius,
               pts, dirs, out_vel) -> tuple[int, float, int, float, int]:
     """Collision check of the move ``pos`` -> ``target`` (2,) [m] over ``dt`` [s], and ORCA.
 
-    Returns ``(code, theta, wall, frac, n_lines)``. ``code`` is FREE (the disc of ``radius`` [m] sweeps past
-    every wall and agent; ``out_vel`` is the INS velocity), AVOIDED (``out_vel`` is the
+    Returns ``(code, theta, wall, frac, n_lines)``. ``code`` is FREE (the disc of
+    ``radius`` [m] sweeps past every wall and agent; ``out_vel`` is the INS velocity),
+    AVOIDED (``out_vel`` is the
     ORCA velocity of eq. 6: the permitted velocity closest to the INS velocity, no
     faster) or LEAST_VIOLATION (no velocity meets every constraint, e.g. agents
     overlapping; the least-violating one). ``theta`` [rad] is the smallest rotation of
     the INS velocity, at its speed, into the permitted set (Figure 4; NaN when none
     exists, 0 when FREE). ``wall`` is the wall the disc touches first (-1 when only an
     agent is in the way), ``frac`` the fraction of the move at that contact and
-    ``n_lines`` the number of ORCA lines left in ``pts``/``dirs``. The obstacle time horizon is ``max(tau, dt)`` so that a step
-    can never tunnel through a wall.
+    ``n_lines`` the number of ORCA lines left in ``pts``/``dirs``. The obstacle time
+    horizon is ``max(tau, dt)`` so that a step can never tunnel through a wall.
+    ``stamp``, ``tag``, ``cand`` and ``dist2`` are the scratch buffers of
+    :func:`~firenav_framework.building.index.segments_near_sorted`.
     """
     vx, vy = (target[0] - pos[0]) / dt, (target[1] - pos[1]) / dt
     out_vel[0], out_vel[1] = vx, vy
@@ -145,11 +114,11 @@ def orca_step(pos, target, dt, radius, tau, tau_agents, segs, start, items, ox, 
     step = speed * dt
     tau_o = max(tau, dt)
     reach = max(tau_o * speed, step) + radius
-    n = gather_walls(pos[0], pos[1], reach, segs, start, items, ox, oy, h, nx, ny,
-                     stamp, tag, cand, dist)
+    n = segments_near_sorted(pos[0], pos[1], reach, segs, start, items, ox, oy, h, nx, ny,
+                             stamp, tag, cand, dist2)
     first, wall = 2.0, -1
     for k in range(n):
-        if dist[k] > (step + radius) ** 2:
+        if dist2[k] > (step + radius) ** 2:
             break
         w = cand[k]
         f = disc_contact(pos[0], pos[1], target[0], target[1], radius - CONTACT_TOL,
@@ -191,7 +160,7 @@ class WallGrid:
         self.stamp = np.full(max(n, 1), -1, dtype=np.int64)
         self.tag = 0
         self.cand = np.empty(max(n, 1), dtype=np.int64)
-        self.dist = np.empty(max(n, 1))
+        self.dist2 = np.empty(max(n, 1))
         self.pts = np.empty((n + max_agents + 1, 2))
         self.dirs = np.empty((n + max_agents + 1, 2))
         self.vel = np.empty(2)
@@ -204,10 +173,10 @@ class WallGrid:
         first wall touched, fraction of the move at that contact)."""
         self.tag += 1
         ox, oy, h, nx, ny = self.grid
-        code, theta, wall, frac, self.n_lines = orca_step(pos, target, dt, radius, tau, tau_agents, self.segs, self.start,
-                         self.items, ox, oy, h, nx, ny, self.stamp, self.tag, self.cand,
-                         self.dist, others_pos, others_vel, others_radius, self.pts,
-                         self.dirs, self.vel)
+        code, theta, wall, frac, self.n_lines = orca_step(
+            pos, target, dt, radius, tau, tau_agents, self.segs, self.start, self.items, ox, oy,
+            h, nx, ny, self.stamp, self.tag, self.cand, self.dist2, others_pos, others_vel,
+            others_radius, self.pts, self.dirs, self.vel)
         return code, self.vel.copy(), theta, wall, frac
 
     def rotation_for(self, vel: np.ndarray) -> float:
@@ -220,15 +189,15 @@ class WallGrid:
         self.tag += 1
         ox, oy, h, nx, ny = self.grid
         return _sweep_hits(p0, p1, radius, self.segs, self.start, self.items, ox, oy, h, nx,
-                           ny, self.stamp, self.tag, self.cand, self.dist)
+                           ny, self.stamp, self.tag, self.cand, self.dist2)
 
 
 @njit(cache=True)
 def _sweep_hits(p0, p1, radius, segs, start, items, ox, oy, h, nx, ny, stamp, tag, cand,
-                dist) -> bool:
+                dist2) -> bool:
     step = math.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2)
-    n = gather_walls(p0[0], p0[1], step + radius, segs, start, items, ox, oy, h, nx, ny,
-                     stamp, tag, cand, dist)
+    n = segments_near_sorted(p0[0], p0[1], step + radius, segs, start, items, ox, oy, h, nx,
+                             ny, stamp, tag, cand, dist2)
     for k in range(n):
         w = cand[k]
         if disc_contact(p0[0], p0[1], p1[0], p1[1], radius - CONTACT_TOL, segs[w, 0, 0],

@@ -1,10 +1,9 @@
-"""Search-pattern ICP pseudo-observations for the particle filter (search-pattern paper §IV-D/E).
+"""The ``search_pattern_icp`` constraint: search-pattern ICP pseudo-observations for the
+particle filter (search-pattern paper §IV-D/E).
 
 Modules: :mod:`.principal` (eq. 1), :mod:`.icp` (batched ICP), :mod:`.comparison`
 (Algorithm 1 and the association of eq. 2), :mod:`.constraint` (the plugin).
 """
-from .constraint import SearchPatternIcp
+from .constraint import SearchPatternIcpConstraint
 
-PLUGINS = [SearchPatternIcp]
-
-__all__ = ["SearchPatternIcp", "PLUGINS"]
+__all__ = ["SearchPatternIcpConstraint"]

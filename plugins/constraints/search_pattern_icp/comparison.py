@@ -40,6 +40,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from firenav_framework.building.search_patterns import SearchPatterns
+from firenav_framework.geometry import wrap_angles
 
 from .icp import icp_batch, pattern_segments
 from .principal import principal_rotation
@@ -150,7 +151,7 @@ class PatternComparison:
             _, j = tree.query(xy[on])
             entries = self.node_entries[ids[j]]                     # (n, width)
             valid = entries >= 0
-            dh = np.abs(np.angle(np.exp(1j * (heading[on, None] - obs.heading[entries]))))
+            dh = np.abs(wrap_angles(heading[on, None] - obs.heading[entries]))
             dh[~valid] = np.inf
             best = entries[np.arange(len(entries)), np.argmin(dh, axis=1)]
             out[on] = obs.rmse[best]

@@ -31,13 +31,13 @@ from typing import Literal
 import numpy as np
 import shapely
 
-from firenav_framework import PerAgent, Params, param
+from firenav_framework import Angle, PerAgent, Params, param
 from firenav_framework.building.search_patterns import extract_search_patterns
 from firenav_framework.capabilities.particles import ParticleConstraint, Particles, ParticleStep
 
 from .comparison import Observations, PatternComparison
 
-__all__ = ["SearchPatternIcp"]
+__all__ = ["SearchPatternIcpConstraint"]
 
 
 class SearchPatternIcpParams(Params):
@@ -55,8 +55,9 @@ class SearchPatternIcpParams(Params):
                                      "filter has not converged (0: always, the paper)")
     resample_position_sigma_m: float = param(0.5, unit="m", ge=0,
                                              description="noise on resampled positions (§V-B)")
-    resample_heading_sigma_deg: float = param(25.0, unit="deg", ge=0,
-                                              description="noise on resampled headings (§V-B)")
+    resample_heading_sigma: Angle = param(math.radians(25.0), unit="rad", ge=0,
+                                          description="noise on resampled walking headings "
+                                          "(25 deg, §V-B)")
     point_spacing_m: float = param(0.5, unit="m", gt=0,
                                    description="odometry resampled along its path at this spacing")
     right_hand_heading: Literal["arrival", "departure"] = param(
@@ -75,7 +76,7 @@ class _AgentState:
     obs_t: float = math.nan
 
 
-class SearchPatternIcp(ParticleConstraint):
+class SearchPatternIcpConstraint(ParticleConstraint):
     """Search-pattern ICP pseudo-observations: weight (and optionally resample) particles."""
 
     name = "search_pattern_icp"
@@ -146,8 +147,7 @@ class SearchPatternIcp(ParticleConstraint):
         idx = self.comparison.sample(obs, n, self.params.sigma, rng)
         xy = obs.position[idx] + rng.standard_normal((n, 2)) * self.params.resample_position_sigma_m
         self._keep_reachable(xy, obs.position[idx], obs.floor[idx], step.building, rng)
-        heading = obs.heading[idx] + rng.standard_normal(n) * math.radians(
-            self.params.resample_heading_sigma_deg)
+        heading = obs.heading[idx] + rng.standard_normal(n) * self.params.resample_heading_sigma
         donors = rng.integers(0, len(step.particles), n)   # step scale, yaw rate: the cloud's
         self.ctx.count("pseudo_observation_particles", n)
         return Particles.create(xy, step.frame_yaw_for(heading), obs.floor[idx],

@@ -1,4 +1,4 @@
-"""Wall-following evidence: a straight walk alongside a wall runs parallel to it.
+"""The ``wall_follow`` constraint: a straight walk alongside a wall runs parallel to it.
 
 ORCA (§2.2) sees a heading error only when it steers the dead-reckoned path *into* a
 wall. A firefighter following a wall (the search tactic of the ORCA paper's Test II) or
@@ -34,13 +34,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from firenav_framework import Params, PerAgent, param
+from firenav_framework import Angle, Params, PerAgent, param
 from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
-from .anchors import AnchorSite
-from .turns import TurnHistory
+from ..turn_history import TurnHistory
 
 __all__ = ["WallFollowConstraint", "wall_alongside"]
 
@@ -107,13 +106,13 @@ class WallFollowConstraint(OdometryCorrection):
                                     "wide)")
         straightness: float = param(0.25, unit="m", gt=0, description="largest sideways "
                                     "deviation of the run from its chord")
-        min_angle: float = param(math.radians(0.5), unit="rad", ge=0, description="smaller "
+        min_angle: Angle = param(math.radians(0.5), unit="rad", ge=0, description="smaller "
                                  "deviations from the wall's direction are left alone")
-        max_angle: float = param(math.radians(8.0), unit="rad", gt=0, description="larger "
+        max_angle: Angle = param(math.radians(8.0), unit="rad", gt=0, description="larger "
                                  "deviations are walking away from the wall, not drift")
         pivot: float = param(0.5, ge=0, le=1, description="the rotation turns about the point "
                              "this fraction of the way back from the agent to the run's start")
-        turn: float = param(math.radians(30.0), unit="rad", gt=0, description="a heading or "
+        turn: Angle = param(math.radians(30.0), unit="rad", gt=0, description="a heading or "
                             "step-direction change over two steps above this ends the run")
         min_step: float = param(0.2, unit="m", ge=0, description="shorter moves have no "
                                 "direction (for the turn check)")
@@ -121,10 +120,10 @@ class WallFollowConstraint(OdometryCorrection):
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
         self.runs: PerAgent[_Run] = PerAgent(lambda agent: _Run())
-        self._site: AnchorSite | None = None
+        self._building = None
 
     def start(self) -> None:
-        self._site = AnchorSite(self.ctx.building)
+        self._building = self.ctx.building
 
     def reset(self, agent: str) -> None:
         self.runs.reset(agent)
@@ -151,7 +150,7 @@ class WallFollowConstraint(OdometryCorrection):
             # not straight (yet): keep the run as long as a straight tail of it
             self._trim(run, p.follow_distance)
             return None
-        floor = self._site.floor_at(step.prev[2])
+        floor = self._building.floors[self._building.floor_of_z(step.prev[2])]
         near = floor.walls_near(0.5 * (a + b), p.follow_range + 0.5 * n)
         found = wall_alongside(a, b, floor.walls[near], p.follow_range, p.max_angle)
         if found is None or abs(found[0]) < p.min_angle:

@@ -25,7 +25,7 @@ import numpy as np
 from firenav_framework import Params, param
 from firenav_framework.capabilities.particles import ParticleConstraint, ParticleStep
 
-__all__ = ["WallCrossing", "crossing_moves"]
+__all__ = ["WallCrossingConstraint", "crossing_moves"]
 
 
 def crossing_moves(building, floor: np.ndarray, p0: np.ndarray, p1: np.ndarray,
@@ -52,7 +52,7 @@ class WallCrossingParams(Params):
         "(remove) or are left alone (allow)")
 
 
-class WallCrossing(ParticleConstraint):
+class WallCrossingConstraint(ParticleConstraint):
     """Particles whose move crosses a wall are removed (or down-weighted)."""
 
     name = "wall_crossing"
@@ -66,5 +66,3 @@ class WallCrossing(ParticleConstraint):
         penalty = -math.inf if self.params.mode == "remove" else math.log(self.params.factor)
         return np.where(crossed, penalty, 0.0)
 
-
-PLUGINS = [WallCrossing]

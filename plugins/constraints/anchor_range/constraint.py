@@ -1,4 +1,4 @@
-"""UWB ranges to fixed anchors as a position correction of the dead-reckoned path.
+"""The ``anchor_range`` constraint: UWB ranges to fixed anchors correct the dead-reckoned path.
 
 The ORCA paper (§2.2, §3.1) leaves a UWB anchor at the entrance and uses its range only
 to choose a door; its outlook (§5) adds that "each time a firefighter passes near the
@@ -30,7 +30,7 @@ from firenav_framework.capabilities.odometry_correction import (OdometryCorrecti
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
-from .anchors import AnchorSite
+from ..anchor_ranges import AnchorRanges
 
 __all__ = ["AnchorRangeConstraint"]
 
@@ -74,10 +74,12 @@ class AnchorRangeConstraint(OdometryCorrection):
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
         self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
-        self._site: AnchorSite | None = None
+        self._building = None
+        self._anchors: AnchorRanges | None = None
 
     def start(self) -> None:
-        self._site = AnchorSite(self.ctx.building)
+        self._building = self.ctx.building
+        self._anchors = AnchorRanges(self._building)
 
     def reset(self, agent: str) -> None:
         self.agents.reset(agent)
@@ -85,7 +87,7 @@ class AnchorRangeConstraint(OdometryCorrection):
     def handle(self, stream: str, msg: Range) -> None:
         if not isinstance(msg, Range):
             return
-        anchor = self._site.usable_anchor(msg, self.ctx.count)
+        anchor = self._anchors.anchor_of(msg, self.ctx.count)
         if anchor is None:
             return
         if msg.nlos and not self.params.use_nlos:
@@ -95,7 +97,7 @@ class AnchorRangeConstraint(OdometryCorrection):
         while me.pending and msg.t - me.pending[0][0] > self.params.max_age:
             me.pending.popleft()            # no step came to use it (standing still)
             self.ctx.count("ranges_stale")
-        me.pending.append((msg.t, self._site.positions[anchor], msg.range_m, msg.sigma_m))
+        me.pending.append((msg.t, self._anchors.positions[anchor], msg.range_m, msg.sigma_m))
 
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         p = self.params
@@ -111,7 +113,7 @@ class AnchorRangeConstraint(OdometryCorrection):
             due.append(me.pending.popleft())
         if not due:
             return None
-        floor = self._site.floor_at(step.prev[2])
+        floor = self._building.floors[self._building.floor_of_z(step.prev[2])]
         tag_z = floor.z + p.tag_height
         shift = np.zeros(2)
         for t_r, anchor, r, sigma in due:

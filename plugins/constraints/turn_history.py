@@ -1,10 +1,18 @@
-"""How much a walker turned over the last two steps, from its INS odometry."""
+"""How much a walker turned over its last two steps, from its INS odometry.
+
+Shared by ``orca`` (no heading correction is stored during a turn) and ``wall_follow``
+(a turn ends a straight run).
+"""
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from firenav_framework.geometry import wrap_angle
+
+__all__ = ["TurnHistory"]
 
 
 @dataclass
@@ -26,7 +34,7 @@ class TurnHistory:
         if math.hypot(delta[0], delta[1]) >= min_step:
             course = math.atan2(delta[1], delta[0])
             if self.course is not None:
-                turn = max(turn, abs(math.remainder(course - self.course, 2 * math.pi)))
+                turn = max(turn, abs(wrap_angle(course - self.course)))
             self.course = course
         self.turns = (self.turns[1], turn)
         return self.turns[0] + self.turns[1]

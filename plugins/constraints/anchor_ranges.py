@@ -1,0 +1,38 @@
+"""UWB ranges to the building's fixed anchors, as the constraints that use them read them.
+
+Shared by ``orca`` (its missed-door rule chooses the door that fits the ranges) and
+``anchor_range`` (the ranges correct the position): which end of a :class:`Range` is a
+known anchor, where that anchor is, and which ranges are unusable.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+
+from firenav_framework import Range
+
+__all__ = ["AnchorRanges"]
+
+
+class AnchorRanges:
+    """The building's anchor positions (3,) ENU [m] by anchor id, and the range screen."""
+
+    def __init__(self, building) -> None:
+        self.positions: dict[str, np.ndarray] = {
+            a.id: np.asarray(a.position, float) for a in building.anchors}
+
+    def anchor_of(self, msg: Range, count: Callable[[str], None]) -> str | None:
+        """The anchor end of a usable range, or None after counting why it is not usable
+        (``ranges_unknown_anchor``: neither end is an anchor of the building;
+        ``ranges_invalid``: a non-finite or negative range or a sigma not above 0)."""
+        anchor = (msg.b if msg.b in self.positions
+                  else msg.a if msg.a in self.positions else None)
+        if anchor is None:
+            count("ranges_unknown_anchor")
+            return None
+        if not (math.isfinite(msg.range_m) and msg.range_m >= 0 and msg.sigma_m > 0):
+            count("ranges_invalid")
+            return None
+        return anchor
