@@ -11,9 +11,17 @@ from typing import Callable
 
 import numpy as np
 
-from firenav_framework import Range
+from firenav_framework import Params, Range, param
 
-__all__ = ["AnchorRanges"]
+__all__ = ["AnchorRanges", "TagParams"]
+
+
+class TagParams(Params):
+    """The worn UWB tag, as every constraint that reads anchor ranges needs it."""
+
+    tag_height: float = param(1.4, unit="m", description="height of the UWB tag above the "
+                              "floor (worn on the chest or shoulder), for the expected "
+                              "range to an anchor")
 
 
 class AnchorRanges:

@@ -25,12 +25,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from firenav_framework import Params, PerAgent, Range, param
+from firenav_framework import PerAgent, Range, param
 from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
-from ..anchor_ranges import AnchorRanges
+from ..anchor_ranges import AnchorRanges, TagParams
 
 __all__ = ["AnchorRangeConstraint"]
 
@@ -49,13 +49,11 @@ class AnchorRangeConstraint(OdometryCorrection):
     inputs = (Range,)
     needs_building = True
 
-    class Params(Params):
+    class Params(TagParams):
         init_sigma: float = param(0.3, unit="m", gt=0, description="position uncertainty at "
                                   "the first step (1 sigma, each axis)")
         step_sigma: float = param(0.05, ge=0, description="position noise added per step and "
                                   "axis, as a fraction of the step length")
-        tag_height: float = param(1.4, unit="m", description="height of the UWB tag above the "
-                                  "floor (worn on the chest or shoulder)")
         model_sigma: float = param(0.15, unit="m", ge=0, description="range model error "
                                    "added (in quadrature) to each range's own sigma: tag "
                                    "height, body and antenna delays, multipath in line of "

@@ -63,13 +63,13 @@ from typing import Literal
 
 import numpy as np
 
-from firenav_framework import Angle, Params, PerAgent, Range, param
+from firenav_framework import Angle, PerAgent, Range, param
 from firenav_framework.building import Floor
 from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
-from ..anchor_ranges import AnchorRanges
+from ..anchor_ranges import AnchorRanges, TagParams
 from ..turn_history import TurnHistory
 from .doors import DoorTable, RangeFix
 from .rules import approach_angle, classify_rotation, line_crossing
@@ -108,7 +108,7 @@ class OrcaConstraint(OdometryCorrection):
     inputs = (Range,)
     needs_building = True
 
-    class Params(Params):
+    class Params(TagParams):
         radius: float = param(0.25, unit="m", gt=0, description="agent disc radius r_n "
                               "(the paper does not state its value)")
         time_horizon: float = param(2.0, unit="s", gt=0, description="obstacle time horizon "
@@ -154,9 +154,6 @@ class OrcaConstraint(OdometryCorrection):
                                 "says nothing about heading or doors")
         range_max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this "
                                      "are not used to choose a door")
-        tag_height: float = param(1.4, unit="m", description="height of the UWB tag above the "
-                                  "floor (worn on the chest or shoulder), for expected "
-                                  "ranges to anchors")
         avoid_team: bool = param(False, description="team members are ORCA agents that avoid "
                                  "each other (reciprocal lines, §2.2)")
         team_time_horizon: float = param(2.0, unit="s", gt=0, description="time horizon for "

@@ -37,6 +37,28 @@ def _det(ax: float, ay: float, bx: float, by: float) -> float:
     return ax * by - ay * bx
 
 
+@njit(cache=True, inline="always")
+def _tangent_to_circle(vx: float, vy: float, cx: float, cy: float, r: float,
+                       pts: np.ndarray, dirs: np.ndarray, n: int) -> None:
+    """Line ``n``: the tangent to the circle (centre (cx, cy), radius ``r``) at the point
+    nearest the velocity (vx, vy), the circle's outside permitted."""
+    wx, wy = vx - cx, vy - cy
+    wn = math.sqrt(wx * wx + wy * wy)
+    if wn > 0.0:
+        wx, wy = wx / wn, wy / wn
+    dirs[n, 0], dirs[n, 1] = wy, -wx
+    pts[n, 0], pts[n, 1] = cx + r * wx, cy + r * wy
+
+
+@njit(cache=True, inline="always")
+def _offset_line(cx: float, cy: float, dx: float, dy: float, r: float,
+                 pts: np.ndarray, dirs: np.ndarray, n: int) -> None:
+    """Line ``n``: direction (dx, dy), through (cx, cy) moved ``r`` to its left."""
+    dirs[n, 0], dirs[n, 1] = dx, dy
+    pts[n, 0] = cx + r * -dy
+    pts[n, 1] = cy + r * dx
+
+
 @njit(cache=True)
 def wall_orca_lines(pos: np.ndarray, vel: np.ndarray, radius: float, tau: float,
                     walls: np.ndarray, order: np.ndarray,
@@ -158,22 +180,13 @@ def wall_orca_lines(pos: np.ndarray, vel: np.ndarray, radius: float, tau: float,
         t_left = (vel[0] - lcx) * llx + (vel[1] - lcy) * lly
         t_right = (vel[0] - rcx) * rlx + (vel[1] - rcy) * rly
 
+        r_tau = radius * inv_tau
         if (t < 0.0 and t_left < 0.0) or (same and t_left < 0.0 and t_right < 0.0):
-            wx, wy = vel[0] - lcx, vel[1] - lcy      # project on the left cut-off circle
-            wn = math.sqrt(wx * wx + wy * wy)
-            if wn > 0.0:
-                wx, wy = wx / wn, wy / wn
-            dirs[n, 0], dirs[n, 1] = wy, -wx
-            pts[n, 0], pts[n, 1] = lcx + radius * inv_tau * wx, lcy + radius * inv_tau * wy
+            _tangent_to_circle(vel[0], vel[1], lcx, lcy, r_tau, pts, dirs, n)  # left cut-off
             n += 1
             continue
         if t > 1.0 and t_right < 0.0:
-            wx, wy = vel[0] - rcx, vel[1] - rcy      # project on the right cut-off circle
-            wn = math.sqrt(wx * wx + wy * wy)
-            if wn > 0.0:
-                wx, wy = wx / wn, wy / wn
-            dirs[n, 0], dirs[n, 1] = wy, -wx
-            pts[n, 0], pts[n, 1] = rcx + radius * inv_tau * wx, rcy + radius * inv_tau * wy
+            _tangent_to_circle(vel[0], vel[1], rcx, rcy, r_tau, pts, dirs, n)  # right cut-off
             n += 1
             continue
 
@@ -195,24 +208,17 @@ def wall_orca_lines(pos: np.ndarray, vel: np.ndarray, radius: float, tau: float,
             d_right = qx * qx + qy * qy
 
         if d_cut <= d_left and d_cut <= d_right:       # the cut-off line (the wall itself)
-            ldx, ldy = -o1dx, -o1dy
-            dirs[n, 0], dirs[n, 1] = ldx, ldy
-            pts[n, 0] = lcx + radius * inv_tau * -ldy
-            pts[n, 1] = lcy + radius * inv_tau * ldx
+            _offset_line(lcx, lcy, -o1dx, -o1dy, r_tau, pts, dirs, n)
             n += 1
         elif d_left <= d_right:
             if left_foreign:
                 continue
-            dirs[n, 0], dirs[n, 1] = llx, lly
-            pts[n, 0] = lcx + radius * inv_tau * -lly
-            pts[n, 1] = lcy + radius * inv_tau * llx
+            _offset_line(lcx, lcy, llx, lly, r_tau, pts, dirs, n)       # left leg
             n += 1
         else:
             if right_foreign:
                 continue
-            dirs[n, 0], dirs[n, 1] = -rlx, -rly
-            pts[n, 0] = rcx + radius * inv_tau * rly
-            pts[n, 1] = rcy + radius * inv_tau * -rlx
+            _offset_line(rcx, rcy, -rlx, -rly, r_tau, pts, dirs, n)     # right leg
             n += 1
     return n
 
