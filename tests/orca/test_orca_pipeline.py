@@ -71,3 +71,11 @@ def test_through_the_room_of_test_iii_it_stays_close(repo):
     ins = evaluate(repo / "pipelines" / "ins-baseline.yaml", **kw).overall
     assert ours.rmse_m < 0.5 * ins.rmse_m
     assert ours.max_m < 0.5 * ins.max_m
+
+
+def test_the_pipeline_sets_the_papers_angles_in_degrees(repo):
+    """The pipeline writes the §2.2 thresholds as '2 deg' ...; the constraint reads the
+    same angles in radians (2, 30, 90 and 15 degrees)."""
+    orca = load_pipeline(repo / "pipelines" / "orca-map-matching.yaml").by_id("orca").params
+    assert (orca.min_rotation, orca.max_rotation, orca.door_angle, orca.door_tolerance) == \
+        pytest.approx((np.pi / 90, np.pi / 6, np.pi / 2, np.pi / 12), rel=1e-15)
