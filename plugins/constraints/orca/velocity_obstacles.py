@@ -38,6 +38,16 @@ def _det(ax: float, ay: float, bx: float, by: float) -> float:
 
 
 @njit(cache=True, inline="always")
+def _tangent_legs(rx: float, ry: float, dist2: float, radius: float, r2: float):
+    """Unit directions (left x, y, right x, y) of the two tangents from the agent to the
+    disc of ``radius`` (``r2`` its square) about the vertex at (rx, ry) relative to the
+    agent, ``dist2`` = rx^2 + ry^2 (RVO2's obstacle legs)."""
+    leg = math.sqrt(dist2 - r2)
+    return ((rx * leg - ry * radius) / dist2, (rx * radius + ry * leg) / dist2,
+            (rx * leg + ry * radius) / dist2, (-rx * radius + ry * leg) / dist2)
+
+
+@njit(cache=True, inline="always")
 def _tangent_to_circle(vx: float, vy: float, cx: float, cy: float, r: float,
                        pts: np.ndarray, dirs: np.ndarray, n: int) -> None:
     """Line ``n``: the tangent to the circle (centre (cx, cy), radius ``r``) at the point
@@ -133,31 +143,19 @@ def wall_orca_lines(pos: np.ndarray, vel: np.ndarray, radius: float, tau: float,
             same = True                          # p1 alone defines the obstacle
             o1x, o1y, o1dx, o1dy = r1x, r1y, dx, dy
             o2dx, o2dy = dx, dy
-            leg = math.sqrt(dist1 - r2)
-            llx = (r1x * leg - r1y * radius) / dist1
-            lly = (r1x * radius + r1y * leg) / dist1
-            rlx = (r1x * leg + r1y * radius) / dist1
-            rly = (-r1x * radius + r1y * leg) / dist1
+            llx, lly, rlx, rly = _tangent_legs(r1x, r1y, dist1, radius, r2)
             o2x, o2y = r1x, r1y
         elif s > 1.0 and dist_line <= r2:
             same = True                          # p2 alone defines the obstacle
             o1x, o1y, o1dx, o1dy = r2x, r2y, -dx, -dy
             o2dx, o2dy = -dx, -dy
-            leg = math.sqrt(dist2 - r2)
-            llx = (r2x * leg - r2y * radius) / dist2
-            lly = (r2x * radius + r2y * leg) / dist2
-            rlx = (r2x * leg + r2y * radius) / dist2
-            rly = (-r2x * radius + r2y * leg) / dist2
+            llx, lly, rlx, rly = _tangent_legs(r2x, r2y, dist2, radius, r2)
             o2x, o2y = r2x, r2y
         else:
             o1x, o1y, o1dx, o1dy = r1x, r1y, dx, dy
             o2x, o2y, o2dx, o2dy = r2x, r2y, -dx, -dy
-            leg1 = math.sqrt(dist1 - r2)
-            llx = (r1x * leg1 - r1y * radius) / dist1
-            lly = (r1x * radius + r1y * leg1) / dist1
-            leg2 = math.sqrt(dist2 - r2)
-            rlx = (r2x * leg2 + r2y * radius) / dist2
-            rly = (-r2x * radius + r2y * leg2) / dist2
+            llx, lly, _, _ = _tangent_legs(r1x, r1y, dist1, radius, r2)
+            _, _, rlx, rly = _tangent_legs(r2x, r2y, dist2, radius, r2)
 
         # a leg may not point into the neighbouring edge: use that edge instead
         # (for a two-vertex obstacle the neighbour of a vertex runs back along it)
@@ -250,13 +248,11 @@ def agent_orca_lines(pos: np.ndarray, vel: np.ndarray, radius: float, tau: float
                 ldx, ldy = uy, -ux
                 ux, uy = (comb * inv_tau - wl) * ux, (comb * inv_tau - wl) * uy
             else:
-                leg = math.sqrt(dist2 - comb2)
+                llx, lly, rlx, rly = _tangent_legs(rpx, rpy, dist2, comb, comb2)
                 if _det(rpx, rpy, wx, wy) > 0.0:
-                    ldx = (rpx * leg - rpy * comb) / dist2
-                    ldy = (rpx * comb + rpy * leg) / dist2
+                    ldx, ldy = llx, lly                     # project on the left leg
                 else:
-                    ldx = -(rpx * leg + rpy * comb) / dist2
-                    ldy = -(-rpx * comb + rpy * leg) / dist2
+                    ldx, ldy = -rlx, -rly                   # on the right leg
                 dp = rvx * ldx + rvy * ldy
                 ux, uy = dp * ldx - rvx, dp * ldy - rvy
         else:
