@@ -23,7 +23,7 @@ from typing import Any, TextIO
 
 from .bus import Bus, Fault, Subscription
 from .contract import Component, Context, Estimator, Source
-from .contract.context import PIPELINE_DIR
+from .contract.context import PIPELINE_DIR, NoBuilding
 from .messages import Diagnostic, Message
 from .pipeline import PipelineSpec
 from .stats import RunStats
@@ -130,7 +130,7 @@ class Runner:
                         self._building_cache.append(comp.building())
                         break
                 else:
-                    raise RuntimeError("this pipeline has no building")
+                    raise NoBuilding("this pipeline has no building")
         return self._building_cache[0]
 
     def _publish(self, cid: str, port: str, msg: Message) -> None:
@@ -197,7 +197,7 @@ class Runner:
     def _building_if_any(self) -> Any:
         try:
             return self._load_building()
-        except RuntimeError:  # this pipeline has no building
+        except NoBuilding:
             return None
 
     def _run(self) -> RunResult:

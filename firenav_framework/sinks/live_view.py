@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from ..contract import Params, Sink, param
+from ..contract import NoBuilding, Params, Sink, param
 from ..liveview.server import LiveViewServer, ViewState, building_json
 from ..liveview.status import StatusParams, StatusTracker
 from ..messages import Diagnostic, PoseEstimate, Tick
@@ -32,7 +32,7 @@ class LiveViewSink(Sink):
                                max_points=self.params.max_points)
         try:
             self.state.building = building_json(self.ctx.building)
-        except RuntimeError:  # no building in this pipeline: tracks on a blank grid
+        except NoBuilding:  # tracks on a blank grid
             pass
         self.server = LiveViewServer(self.state, self.params.host, self.params.port,
                                      self.params.push_period)

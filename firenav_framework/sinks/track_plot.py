@@ -5,7 +5,7 @@ from typing import Any
 
 import numpy as np
 
-from ..contract import FileSink, Params, param
+from ..contract import FileSink, NoBuilding, Params, param
 from ..messages import GroundTruth, PoseEstimate
 from ..tracks import Track, TrackStore
 
@@ -55,7 +55,7 @@ class TrackPlotSink(FileSink):
             return
         try:
             building = self.ctx.building
-        except RuntimeError:  # no building in this pipeline
+        except NoBuilding:
             building = None
         all_tracks = [tr for agents in tracks.values() for tr in agents.values()]
         all_tracks += list(truth.values())
