@@ -15,8 +15,9 @@ import shapely
 from shapely.geometry import LineString, Point
 
 from .model import Building, Floor
+from .wall_merge import overlapping_pairs
 
-__all__ = ["Problem", "check_building", "JOIN_TOL", "JAMB_TOL"]
+__all__ = ["Problem", "check_building", "wall_cover", "open_stretches", "JOIN_TOL", "JAMB_TOL"]
 
 #: Wall ends closer than this [m] to another wall are joined to it.
 JOIN_TOL = 0.05
@@ -24,6 +25,9 @@ JOIN_TOL = 0.05
 JAMB_TOL = 0.15
 #: Shortest stretch [m] of a room outline without wall or door that counts as open.
 MIN_OPEN = 0.10
+#: Storey heights [m] outside this range are reported (a mezzanine or a sports hall may
+#: be real; an export that took a vent or a tall obstacle for the ceiling is not).
+MIN_STOREY, MAX_STOREY = 2.0, 6.0
 
 
 @dataclass(frozen=True)
@@ -161,49 +165,41 @@ def _check_wall_ends(floor: Floor) -> list[Problem]:
 
 def _check_duplicate_walls(floor: Floor) -> list[Problem]:
     segs, idx = _drawn_walls(floor)
-    if len(segs) < 2:
-        return []
-    tree = shapely.STRtree(shapely.linestrings(segs))
-    a, b = tree.query(shapely.linestrings(segs), predicate="dwithin", distance=JOIN_TOL)
-    keep = a < b
-    a, b = a[keep], b[keep]
     out = []
-    for i, j in zip(a, b):
-        p, q = segs[i], segs[j]
-        u = p[1] - p[0]
-        length = np.hypot(*u)
-        u = u / length
-        rel = q - p[0]
-        off = np.abs(rel[:, 0] * u[1] - rel[:, 1] * u[0])    # distance of q's ends from p's line
-        if off.max() > JOIN_TOL:
-            continue
-        s = rel @ u
-        lo, hi = max(0.0, s.min()), min(length, s.max())
-        if hi - lo <= JOIN_TOL:
-            continue
-        mid = p[0] + u * (lo + hi) / 2
-        wi, wj = floor.wall_ids[idx[i]], floor.wall_ids[idx[j]]
+    for o in overlapping_pairs(segs, JOIN_TOL):
+        wi, wj = floor.wall_ids[idx[o.i]], floor.wall_ids[idx[o.j]]
         name = f"walls {wi} and {wj}" if wi != wj else f"wall {wi} (two of its segments)"
-        out.append(Problem("error", "duplicate_wall", floor.index, _xy(mid), name,
-                           f"overlap for {hi - lo:.2f} m (drawn twice)"))
+        out.append(Problem("error", "duplicate_wall", floor.index, _xy(o.mid), name,
+                           f"overlap for {o.length:.2f} m (drawn twice)"))
     return out
+
+
+def wall_cover(walls: np.ndarray, gap_jambs: list[np.ndarray]):
+    """What closes a room outline: the walls (W, 2, 2) widened by ``JOIN_TOL`` and the door
+    and opening lines (jambs (2, 2)) widened by ``JAMB_TOL``; None if nothing."""
+    cover = list(shapely.buffer(shapely.linestrings(walls), JOIN_TOL)) if len(walls) else []
+    cover += [LineString(j).buffer(JAMB_TOL) for j in gap_jambs]
+    return shapely.union_all(cover) if cover else None
+
+
+def open_stretches(polygon, cover) -> list[LineString]:
+    """Stretches (longer than ``MIN_OPEN``) of a room outline that ``cover`` leaves open."""
+    rest = polygon.boundary if cover is None else polygon.boundary.difference(cover)
+    if rest.is_empty:
+        return []
+    return [p for p in shapely.get_parts(shapely.line_merge(rest)) if p.length >= MIN_OPEN]
 
 
 def _check_open_rooms(floor: Floor) -> list[Problem]:
     if not floor.rooms:
         return []
     segs, _ = _drawn_walls(floor)
-    cover = list(shapely.buffer(shapely.linestrings(segs), JOIN_TOL)) if len(segs) else []
-    cover += [LineString(g.jambs).buffer(JAMB_TOL) for g in floor.doors + floor.openings]
-    cover_all = shapely.union_all(cover) if cover else None
+    cover = wall_cover(segs, [g.jambs for g in floor.doors + floor.openings])
     out = []
     for room in floor.rooms:
         if not room.polygon.is_valid:
             continue   # reported as invalid already
-        rest = room.polygon.boundary if cover_all is None else room.polygon.boundary.difference(cover_all)
-        for piece in shapely.get_parts(shapely.line_merge(rest) if not rest.is_empty else rest):
-            if piece.length < MIN_OPEN:
-                continue
+        for piece in open_stretches(room.polygon, cover):
             mid = piece.interpolate(0.5, normalized=True)
             out.append(Problem("error", "room_open", floor.index, _xy((mid.x, mid.y)),
                                f"room {room.id}",

@@ -108,7 +108,8 @@ class Stair:
     ``path`` (K, 2) [m] is the walking line from the ``bottom`` (on ``floor_from``) to the
     ``top`` (on ``floor_to``); a U-shaped stair has its turn in the path. ``z_from`` and
     ``z_to`` are the floor levels [m]. ``polygon`` is the stair's footprint (by default
-    the path widened to ``width``). Height grows linearly with distance along the path.
+    the path widened to ``width``; a stair laid out in a stairwell covers its flights and
+    half landing). Height grows linearly with distance along the path.
     """
 
     id: str
@@ -125,8 +126,11 @@ class Stair:
         if not self.n_steps:
             self.n_steps = max(1, round(abs(self.rise) / NOMINAL_STEP_HEIGHT))
         if self.polygon is None:
-            self.polygon = LineString(self.path).buffer(self.width / 2, cap_style="flat",
-                                                        join_style="mitre")
+            self.polygon = self.default_polygon()
+
+    def default_polygon(self) -> Polygon:
+        """The footprint when none is given: the walking line widened to ``width``."""
+        return LineString(self.path).buffer(self.width / 2, cap_style="flat", join_style="mitre")
 
     @property
     def bottom(self) -> np.ndarray:
