@@ -424,6 +424,7 @@ def _read_cad(data: dict, where: str, notes: list[str]) -> list[_Floor]:
     floors = [_Floor(k, i) for i, k in enumerate(keys)]
     skipped: Counter[str] = Counter()
     tops: list[float] = []           # highest z1 of anything but towers, per floor
+    lows: list[float] = []           # lowest z0 of anything, per floor
     room_z: list[list[tuple[float, float]]] = []
     towers: list[tuple[_Floor, str, str, Polygon, float, float]] = []
     records: dict[str, dict[str, list]] = {}
@@ -437,31 +438,39 @@ def _read_cad(data: dict, where: str, notes: list[str]) -> list[_Floor]:
         for t in _NOT_GEOMETRY:
             if isinstance(raw.get(t), list) and raw[t]:
                 skipped[t] += len(raw[t])
-        top = -np.inf
-        for t, items in [(t, v) for t, v in raw.items() if isinstance(v, list) and t not in _TOWERS]:
+        top, low = -np.inf, np.inf
+        for t, items in [(t, v) for t, v in raw.items() if isinstance(v, list)]:
             for k, item in enumerate(items):
                 if isinstance(item, dict) and "z" in item:
                     try:
-                        top = max(top, _z_range(f"{at}.{t}[{k}]", item["z"])[1])
+                        z0, z1 = _z_range(f"{at}.{t}[{k}]", item["z"])
                     except BuildingError:
                         if t not in _NOT_GEOMETRY:
                             raise
+                        continue
+                    low = min(low, z0)
+                    if t not in _TOWERS:
+                        top = max(top, z1)
         tops.append(top)
+        lows.append(low)
         room_z.append([z for t in ("ROOM", "COR") for k, item in enumerate(recs[t])
                        if (z := _z_of(f"{at}.{t}[{k}]", item)) is not None])
     # Levels: the lowest z0 of the ROOM/COR compartments of each floor.
     for i, fl in enumerate(floors):
         at = f"{where}: [{fl.key!r}]"
-        zs = room_z[i] or [z for t in _TOWERS for k, item in enumerate(records[fl.key][t])
-                           if (z := _z_of(f"{at}.{t}[{k}]", item)) is not None]
+        zs = room_z[i]
         if zs:
             fl.z = min(z0 for z0, _ in zs)
             if max(z0 for z0, _ in zs) - fl.z > 0.01:
                 notes.append(f"floor {fl.key}: its rooms start at levels from {fl.z:.2f} to "
                              f"{max(z0 for z0, _ in zs):.2f} m; the lowest is the floor level")
+        elif np.isfinite(lows[i]):
+            fl.z = lows[i]
+            notes.append(f"floor {fl.key}: no z on its rooms; level {fl.z:.2f} m from the "
+                         "lowest of its other records")
         else:
             fl.z = floors[i - 1].z + DEFAULT_FLOOR_HEIGHT if i else 0.0
-            notes.append(f"floor {fl.key}: no z on its rooms; level {fl.z:.2f} m assumed")
+            notes.append(f"floor {fl.key}: no z on its records; level {fl.z:.2f} m assumed")
     top_rooms = room_z[-1]
     _storeys(where, floors, [("the z range of its rooms", max(z1 for _, z1 in top_rooms) - floors[-1].z
                        if top_rooms else None)], notes)

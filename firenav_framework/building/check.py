@@ -28,6 +28,9 @@ MIN_OPEN = 0.10
 #: Storey heights [m] outside this range are reported (a mezzanine or a sports hall may
 #: be real; an export that took a vent or a tall obstacle for the ceiling is not).
 MIN_STOREY, MAX_STOREY = 2.0, 6.0
+#: Stair steps outside these are reported: risers above MAX_RISER [m], goings [m]
+#: outside MIN_GOING..MAX_GOING (a flight drawn over a whole stairwell, or squeezed).
+MAX_RISER, MIN_GOING, MAX_GOING = 0.25, 0.20, 0.50
 
 
 @dataclass(frozen=True)
@@ -63,6 +66,7 @@ def check_building(building: Building) -> list[Problem]:
         out += _check_duplicate_walls(floor)
         out += _check_open_rooms(floor)
         out += _check_room_overlap(floor)
+    out += _check_storeys(building)
     out += _check_stairs(building)
     out += _check_entrances(building)
     rank = {"error": 0, "warning": 1}
@@ -242,6 +246,39 @@ def _check_stairs(building: Building) -> list[Problem]:
             if outline.distance(Point(end)) > JOIN_TOL:
                 out.append(Problem("error", "stair_end_outside", fl, _xy(end), label,
                                    f"{name} end lies outside the building on floor {fl}"))
+        steps = f"{s.n_steps} steps of {abs(s.step_height):.3f} m over {s.flight_length:.2f} m"
+        if abs(s.step_height) > MAX_RISER or s.going < MIN_GOING:
+            out.append(Problem("warning", "stair_steep", s.floor_from, _xy(s.bottom), label,
+                               f"{steps} (going {s.going:.2f} m): steeper than a stair "
+                               f"(risers up to {MAX_RISER} m, goings from {MIN_GOING} m)"))
+        elif s.going > MAX_GOING:
+            out.append(Problem("warning", "stair_shallow", s.floor_from, _xy(s.bottom), label,
+                               f"{steps} (going {s.going:.2f} m): longer than a stair of "
+                               f"this rise (goings up to {MAX_GOING} m); is the walking "
+                               "line the flight?"))
+    return out
+
+
+def _check_storeys(building: Building) -> list[Problem]:
+    """Storey heights outside MIN_STOREY..MAX_STOREY, and heights that disagree with the
+    gap to the next floor level."""
+    out = []
+    floors = building.floors
+    for k, f in enumerate(floors):
+        label = f"floor {f.index} ({f.name})" if f.name and f.name != str(f.index) else f"floor {f.index}"
+        if k + 1 < len(floors):
+            gap = floors[k + 1].z - f.z
+            if abs(gap - f.height) > 0.01:
+                out.append(Problem("warning", "floor_height_mismatch", f.index, None, label,
+                                   f"height {f.height:.2f} m, but floor {k + 1} is {gap:.2f} m "
+                                   f"above it (level {f.z:.2f} -> {floors[k + 1].z:.2f} m)"))
+            storey, how = gap, f"from level {f.z:.2f} to {floors[k + 1].z:.2f} m"
+        else:
+            storey, how = f.height, "its height (top floor)"
+        if not MIN_STOREY <= storey <= MAX_STOREY:
+            out.append(Problem("warning", "storey_height", f.index, None, label,
+                               f"storey {storey:.2f} m high ({how}), outside the usual "
+                               f"{MIN_STOREY:g}-{MAX_STOREY:g} m: check the floor levels"))
     return out
 
 

@@ -155,6 +155,18 @@ class Stair:
         return float(np.sum(np.linalg.norm(np.diff(self.path, axis=0), axis=1)))
 
     @property
+    def flight_length(self) -> float:
+        """Horizontal length of the flights [m]: with three or more path segments the first
+        and last are flights and those between landings; otherwise the whole line."""
+        seg = np.linalg.norm(np.diff(self.path, axis=0), axis=1)
+        return float(seg[0] + seg[-1]) if len(seg) >= 3 else float(seg.sum())
+
+    @property
+    def going(self) -> float:
+        """Mean tread depth [m] (flight length over the number of steps)."""
+        return self.flight_length / self.n_steps
+
+    @property
     def direction(self) -> np.ndarray:
         """Unit vector of the climb at the bottom (the rise direction of the first flight)."""
         return _unit(self.path[1] - self.path[0])

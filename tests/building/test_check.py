@@ -90,7 +90,19 @@ def test_stair_that_connects_nothing():
     ok = codes(plan(*CLOSED, *[dict(f, properties=dict(f["properties"], floor=1, id=f["properties"]["id"] + "1"))
                               for f in CLOSED], feat("stair", line((1, 1), (3, 1)), id="s", floor_to=1),
                     floors=2))
-    assert ok == []
+    # Joined now; only its pitch is off (3 m in 2 m).
+    assert ok == [("warning", "stair_steep", "stair s", (1.0, 1.0))]
+
+
+@pytest.mark.parametrize("run, code", [(2.0, "stair_steep"), (4.2, None), (9.0, "stair_shallow")])
+def test_stair_pitch(run, code):
+    # A 3 m rise in 15 steps of 0.20 m (the nominal step) over `run` metres: goings of
+    # 0.13 m are a ladder, 0.28 m a stair, 0.60 m a walking line drawn over the landings.
+    hall = [feat("wall", line((0, 0), (10, 0), (10, 3), (0, 3), (0, 0)), id="w", floor=f)
+            for f in (0, 1)]
+    stair = feat("stair", line((0.5, 1.5), (0.5 + run, 1.5)), id="s", floor_to=1)
+    got = [c for c in codes(plan(*hall, stair, floors=2)) if c[1].startswith("stair")]
+    assert got == ([] if code is None else [("warning", code, "stair s", (0.5, 1.5))])
 
 
 def test_stair_end_outside_the_building():
