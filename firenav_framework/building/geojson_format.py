@@ -252,7 +252,8 @@ def _assemble(features: list[_Feature], *, name: str, source: Path | None, where
             p = np.asarray(f.geometry("Point").coords[0])
             try:
                 georefs.append(GeoRef.at_point(p, f.number("lat"), f.number("lon"),
-                                               f.number("bearing_deg", 0.0)))
+                                               f.number("bearing_deg", 0.0),
+                                               f.number("alt", 0.0)))
             except ValueError as exc:
                 raise f.fail(str(exc)) from None
     if len(georefs) > 1:
@@ -480,8 +481,8 @@ def write_geojson(building: Building, path: str | Path) -> None:
         feats.append(_feature("entrance", {"type": "Point", "coordinates": _r(e.position)}, **props))
     if building.georef is not None:
         g = building.georef
-        feats.append(_feature("georef", {"type": "Point", "coordinates": [0.0, 0.0]},
-                              lat=g.lat, lon=g.lon, bearing_deg=g.bearing))
+        feats.append(_feature("georef", {"type": "Point", "coordinates": list(map(float, g.anchor))},
+                              lat=g.lat, lon=g.lon, alt=g.alt, bearing_deg=g.bearing))
     doc = {"type": "FeatureCollection", "name": building.name, "features": feats}
     Path(path).write_text(dump_plan(doc), encoding="utf-8")
 
