@@ -423,6 +423,16 @@ def _check_cycles(v: _Validator, specs: list[ComponentSpec]) -> None:
             visit(s.id, [s.id])
 
 
+def building_problem(path: Path) -> str | None:
+    """Why the plan at ``path`` cannot be used (it is loaded once to find out), or None."""
+    from .building import BuildingError, load_building
+    try:
+        load_building(path)
+    except BuildingError as exc:
+        return f"the building plan cannot be loaded: {exc}"
+    return None
+
+
 def validate_document(doc: LocatedDocument, *, registry: Registry | None = None,
                       base_dir: Path | None = None, overrides: dict[tuple, str] | None = None
                       ) -> PipelineSpec:
@@ -446,6 +456,10 @@ def validate_document(doc: LocatedDocument, *, registry: Registry | None = None,
             if not building.exists():
                 v.problem(("building",), f"building plan '{data['building']}' not found "
                           f"(looked for {building})")
+            else:
+                problem = building_problem(building)
+                if problem:
+                    v.problem(("building",), problem)
     source_building = any(getattr(s.cls, "provides_building", False) for s in specs
                           if s.kind == "source")
     _check_wiring(v, specs, building is not None or source_building)
