@@ -4,7 +4,8 @@ The table (``data/dxf_layers.yaml`` is the built-in default and documents every 
 gives the drawing unit, a layer prefix naming the floor, floor levels, and shell
 patterns of layer names per feature kind. Entities on unmapped layers are ignored;
 entities of a kind the importer cannot use on a mapped layer are counted in
-``Building.notes``. Features get ids ``<kind><floor>_<DXF handle>`` so that an error
+``Building.notes``, and so are walls drawn twice (merged into one). Coordinates, floor
+numbers and arc flattening are bounded by :mod:`.limits`. Features get ids ``<kind><floor>_<DXF handle>`` so that an error
 or a ``map check`` problem points at the entity in the CAD program.
 """
 from __future__ import annotations
@@ -272,8 +273,9 @@ def read_dxf(path: str | Path, layer_map: str | Path | None = None) -> Building:
                               name=level.name or str(i)))
     notes += [f"{what}: {count}" for what, count in sorted(skipped.items())]
     building = parse_geojson({"type": "FeatureCollection", "name": path.stem, "features": feats},
-                             where=str(path), source=path, default_name=path.stem)
-    building.notes.extend(notes)
+                             where=str(path), source=path, default_name=path.stem,
+                             merge_walls=True)
+    building.notes[:0] = notes
     return building
 
 
