@@ -19,6 +19,7 @@ from shapely.geometry import Polygon, shape
 from shapely.geometry.base import BaseGeometry
 
 from .check import JOIN_TOL
+from .crs_input import to_plan_metres
 from .georef import GeoRef
 from .limits import (MAX_FEATURES, MAX_ITEMS_PER_FLOOR, MAX_WALL_CONTACTS_PER_FLOOR,
                      MAX_WALL_SEGMENTS, MAX_WALL_SEGMENTS_PER_FLOOR, check_coordinates,
@@ -31,7 +32,7 @@ __all__ = ["read_geojson", "parse_geojson", "write_geojson", "dump_plan", "KINDS
            "DEFAULT_FLOOR_HEIGHT"]
 
 KINDS = ("floor", "wall", "door", "opening", "room", "stair", "obstacle", "anchor",
-         "entrance", "georef")
+         "entrance", "georef", "stair_footprint")
 
 #: Floor-to-floor height [m] assumed by importers that do not know it.
 DEFAULT_FLOOR_HEIGHT = 3.0
@@ -76,6 +77,11 @@ class _Feature:
         return str(value)
 
     def geometry(self, *types: str) -> BaseGeometry:
+        # GIS tools save single shapes as one-part Multi* geometries: take the part.
+        g = self.geom
+        if (g is not None and g.geom_type not in types and g.geom_type.startswith("Multi")
+                and g.geom_type[5:] in types and len(g.geoms) == 1):
+            self.geom = g.geoms[0]
         if self.geom is None or self.geom.geom_type not in types:
             got = "no geometry" if self.geom is None else self.geom.geom_type
             raise self.fail(f"a {self.kind} needs a {' or '.join(types)} geometry, got {got}")
@@ -135,9 +141,12 @@ def parse_geojson(data: Any, *, where: str = "<plan>", source: Path | None = Non
 
     ``merge_walls`` (importers): collinear wall segments drawn twice are merged into one
     and listed in ``Building.notes``; in a native plan ``map check`` reports them instead.
+    A collection in WGS84 or a projected CRS (see :mod:`.crs_input`) is converted to
+    plan metres first, and the plan keeps the georef used.
     """
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         raise BuildingError(f"{where}: a plan must be a GeoJSON FeatureCollection")
+    data, crs_georef, crs_notes = to_plan_metres(data, where)
     raw = data.get("features")
     if not isinstance(raw, list):
         raise BuildingError(f"{where}: 'features' must be a list")
@@ -145,6 +154,8 @@ def parse_geojson(data: Any, *, where: str = "<plan>", source: Path | None = Non
     features = []
     for i, f in enumerate(raw):
         props = f.get("properties") if isinstance(f, dict) else None
+        if isinstance(props, dict) and props.get("id") is None and isinstance(f.get("id"), (str, int)):
+            props = {**props, "id": f["id"]}          # the Feature's own id (RFC 7946 3.2)
         fid = props.get("id") if isinstance(props, dict) else None
         at = f"{where}: feature {i}" + (f" (id {fid!r})" if fid is not None else "")
         if not isinstance(f, dict) or f.get("type") != "Feature":
@@ -157,7 +168,11 @@ def parse_geojson(data: Any, *, where: str = "<plan>", source: Path | None = Non
                                 f"got {kind!r}")
         features.append(_Feature(at, kind, props, _parse_geometry(at, f.get("geometry"))))
     name = data.get("name") if isinstance(data.get("name"), str) else default_name
-    return _assemble(features, name=name, source=source, where=where, merge_walls=merge_walls)
+    building = _assemble(features, name=name, source=source, where=where, merge_walls=merge_walls)
+    if crs_georef is not None:
+        building.georef = crs_georef
+        building.notes[:0] = crs_notes
+    return building
 
 
 def _assemble(features: list[_Feature], *, name: str, source: Path | None, where: str,
@@ -200,8 +215,10 @@ def _assemble(features: list[_Feature], *, name: str, source: Path | None, where
             raise f.fail(f"floor {i} is not a declared floor (floors 0..{n - 1})")
         return i
 
+    footprints = {f.text("id"): f.geometry("Polygon") for f in features
+                  if f.kind == "stair_footprint"}
     for f in features:
-        if f.kind in ("floor", "georef"):
+        if f.kind in ("floor", "georef", "stair_footprint"):
             continue
         fl = floor_of(f)
         ident = fid(f, fl)
@@ -237,7 +254,8 @@ def _assemble(features: list[_Feature], *, name: str, source: Path | None, where
             if n_steps < 0 or ("n_steps" in f.props and n_steps == 0):
                 raise f.fail(f"property 'n_steps' must be a positive count, got {n_steps}")
             bucket["stairs"].append(Stair(ident, fl, to, path, f.number("width", 1.0, positive=True),
-                                          z_from, z_to, n_steps, _footprint(f)))
+                                          z_from, z_to, n_steps,
+                                          _footprint(f) or footprints.get(ident)))
         elif f.kind == "anchor":
             p = np.asarray(f.geometry("Point").coords[0])
             z = floors_meta[fl][0] + f.number("height", 0.0)

@@ -6,9 +6,10 @@ plus an anchor's height above it), exterior rings counter-clockwise, no ``crs``
 member. Without one the positions are plan metres [x, y, z] and the top-level
 ``coordinate_frame`` member says so, since a tool assuming RFC 7946 would place them
 off the coast of Africa. Every feature carries ``kind``, ``floor``, ``level_m`` and its
-``id`` (plus ``name``/``use`` for rooms, ``floor_to`` for stairs); a stair is its
-walking line, its footprint a ``stair_footprint`` feature. This is an output format;
-the native plan (:mod:`.geojson_format`) stays in plan metres.
+``id``, plus the native properties (floor ``z``/``height``, room ``name``/``use``, stair
+``floor_to``/``width``/``n_steps``, ...); a stair is its walking line, its footprint a
+``stair_footprint`` feature. The file loads back as a plan (:mod:`.crs_input` converts
+the positions), so it can be edited in a GIS tool; the native plan stays in plan metres.
 """
 from __future__ import annotations
 
@@ -51,13 +52,13 @@ def gis_geojson(building: Building) -> dict:
 
     feats = []
 
-    def add(kind: str, g: BaseGeometry, floor: int, z: float, **props) -> None:
-        feats.append({"type": "Feature", "geometry": geometry(g, z),
-                      "properties": {"kind": kind, "floor": floor, "level_m": z, **props}})
+    def add(kind: str, g: BaseGeometry, floor: int, level: float, **props) -> None:
+        feats.append({"type": "Feature", "geometry": geometry(g, level),
+                      "properties": {"kind": kind, "floor": floor, "level_m": level, **props}})
 
     for fl in building.floors:
         if not fl.outline.is_empty:
-            add("floor", fl.outline, fl.index, fl.z, name=fl.name, height_m=fl.height)
+            add("floor", fl.outline, fl.index, fl.z, name=fl.name, z=fl.z, height=fl.height)
         for r in fl.rooms:
             add("room", r.polygon, fl.index, fl.z, id=r.id, name=r.name, use=r.use)
         drawn = ~fl.wall_is_obstacle
@@ -73,11 +74,11 @@ def gis_geojson(building: Building) -> dict:
             add("obstacle", o.polygon, fl.index, fl.z, id=o.id)
         for s in fl.stairs:
             add("stair", shapely.linestrings(s.path), fl.index, fl.z, id=s.id,
-                floor_to=s.floor_to, n_steps=s.n_steps, width_m=s.width)
+                floor_to=s.floor_to, n_steps=s.n_steps, width=s.width)
             add("stair_footprint", s.polygon, fl.index, fl.z, id=s.id, floor_to=s.floor_to)
     for a in building.anchors:
         add("anchor", shapely.points(a.position[:2]), a.floor, float(a.position[2]), id=a.id,
-            anchor_kind=a.kind)
+            anchor_kind=a.kind, height=round(float(a.position[2] - building.floor(a.floor).z), 4))
     for e in building.entrances:
         add("entrance", shapely.points(e.position), e.floor, building.floor(e.floor).z, id=e.id,
             door=e.door, heading_deg=round(float(np.degrees(e.heading)), 2),
