@@ -10,9 +10,6 @@ from tests.conftest import shared_data_dir
 
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
-    """Path to ``../shared/data``; fails (does not skip) when it is missing."""
-    path = shared_data_dir()
-    if path is None:
-        pytest.fail("real datasets not found: expected ../shared/data next to the repository "
-                    "(or set FIRENAV_SHARED_DATA)")
-    return path
+    """``../shared/data``; when it is missing the test fails (it is not skipped)."""
+    return shared_data_dir() or pytest.fail("real datasets not found: expected ../shared/data "
+                                            "next to the repository (or set FIRENAV_SHARED_DATA)")
