@@ -15,15 +15,20 @@ Exports such as Aamks draw a stairwell only as a box that spans several floors (
 * The run comes from the rise: risers of at most :data:`MAX_RISER`, goings from the
   comfort rule 2R + G = :data:`STEP_RULE` kept within :data:`MIN_GOING`-:data:`MAX_GOING`,
   shortened when the box is too short (``map check`` then warns about the pitch).
-  The flight width is the box width (half of it for each flight of a U).
+* The flights take the box width (half of it each for a U) up to
+  :data:`MAX_FLIGHT_WIDTH` per flight, along the long side that leaves every door
+  clear, narrower (down to :data:`MIN_FLIGHT_WIDTH`) where a door must stay clear; the
+  rest of the box width is a level passage beside them, so doors at both ends of a
+  floor (an outside door at one, a corridor at the other, as Aamks stairwells have)
+  reach the stair.
 * The landing at the door end is :data:`MIN_LANDING` deep, or deeper to take in every
   door of that end that opens onto the long sides; the half landing of a U is as deep
   as a flight is wide (at least :data:`MIN_HALF_LANDING`), and what the box has left
   over deepens the landing at the doors.
 
 The result is a native stair feature (walking line from bottom to top, ``floor_to``,
-``width``, ``n_steps`` and its ``footprint``) and a note saying how it was laid out and
-which doors open away from the landing.
+``width``, ``n_steps`` and its ``footprint``) and a note saying how it was laid out;
+a door that opens onto the stair, or cannot reach its end on its floor, is noted too.
 """
 from __future__ import annotations
 
@@ -35,7 +40,8 @@ import shapely
 from shapely.geometry import Polygon
 
 __all__ = ["StairwellSlice", "stairwell_stairs", "MAX_RISER", "STEP_RULE", "MIN_GOING",
-           "MAX_GOING", "MIN_LANDING", "MIN_HALF_LANDING"]
+           "MAX_GOING", "MIN_LANDING", "MIN_HALF_LANDING", "MAX_FLIGHT_WIDTH",
+           "MIN_FLIGHT_WIDTH"]
 
 #: Highest riser [m] a laid-out stair gets.
 MAX_RISER = 0.19
@@ -46,6 +52,10 @@ MIN_GOING, MAX_GOING = 0.22, 0.30
 #: Depth [m] of the landing at the door end, and of the half landing of a U-shaped stair.
 MIN_LANDING = 1.2
 MIN_HALF_LANDING = 1.0
+#: Widest and narrowest flight [m] laid out (escape stairs are 1.0-1.5 m wide).
+MAX_FLIGHT_WIDTH, MIN_FLIGHT_WIDTH = 1.5, 0.8
+#: Clearance [m] kept between a flight and the jamb of a door in the end wall beside it.
+DOOR_MARGIN = 0.2
 #: A door belongs to a stairwell when its centre is this close [m] to the box outline.
 DOOR_TOL = 0.25
 
@@ -142,6 +152,114 @@ def _fmt(p: np.ndarray) -> str:
     return f"({p[0]:.2f}, {p[1]:.2f})"
 
 
+@dataclass
+class _Door:
+    """A stairwell door in the box frame (s from the landing end): id, spans along s and
+    t [m], and its wall: ``end0``/``end1`` (the ends), ``side0``/``side1`` (t = 0 / W)."""
+
+    id: str
+    s: tuple[float, float]
+    t: tuple[float, float]
+    wall: str
+
+
+def _doors(box: _Box, sl: StairwellSlice, end: int) -> list[_Door]:
+    out = []
+    for ident, jambs in sl.doors:
+        st = box.local(jambs)
+        if end == 1:
+            st[:, 0] = box.length - st[:, 0]
+        c = st.mean(axis=0)
+        gaps = {"end0": c[0], "end1": box.length - c[0], "side0": c[1], "side1": box.width - c[1]}
+        out.append(_Door(ident, (float(st[:, 0].min()), float(st[:, 0].max())),
+                         (float(st[:, 1].min()), float(st[:, 1].max())), min(gaps, key=gaps.get)))
+    return out
+
+
+def _band(W: float, doors: list[_Door], s_lo: float, s_hi: float, at_far_end: bool,
+          flights: int) -> tuple[float, float]:
+    """(t of the band's low edge, band width) [m] for the flights: along the long side
+    that lets them be widest without covering a door."""
+    def widest(side: int) -> float:
+        near, far = ("side0", "side1") if side == 0 else ("side1", "side0")
+        w = min(W, flights * MAX_FLIGHT_WIDTH)
+        for d in doors:
+            t_lo = d.t[0] if side == 0 else W - d.t[1]
+            along = d.s[1] > s_lo and d.s[0] < s_hi
+            if d.wall == near and along:
+                return 0.0
+            if d.wall == "end1" and at_far_end:
+                w = min(w, t_lo - DOOR_MARGIN)
+            if d.wall == far and along:
+                w = min(w, W - MIN_FLIGHT_WIDTH)
+        return w
+
+    w0, w1 = widest(0), widest(1)
+    crowd = [sum(d.wall == f"side{k}" for d in doors) for k in (0, 1)]
+    side = 0 if (w0, -crowd[0]) >= (w1, -crowd[1]) else 1
+    w = max(w0 if side == 0 else w1, min(W, flights * MIN_FLIGHT_WIDTH))
+    return (0.0 if side == 0 else W - w), w
+
+
+def _layout(box: _Box, lo: StairwellSlice, hi: StairwellSlice, e_lo: int, e_hi: int,
+            rise: float, band: tuple[float, float] | None = None):
+    """(walking line (K, 2), footprint ring (4, 2), flight width, risers, going, kind,
+    band), in (s, t) from the bottom's landing end; None if the box is too short.
+    ``band`` (t of its low edge, width [m]) fixes where the flights go; by default the
+    side and width that keep every door clear."""
+    n, going = _steps(rise)
+    L, W = box.length, box.width
+    d_lo, d_hi = _doors(box, lo, e_lo), _doors(box, hi, e_lo)
+    if e_lo == e_hi:                       # U-shaped: landing, flight, half landing, flight
+        a = max(_landing_depth(box, e_lo, lo.doors), _landing_depth(box, e_lo, hi.doors))
+        treads = math.ceil(n / 2)
+        avail = L - a - MIN_HALF_LANDING
+        if avail < treads * 0.1:
+            return None
+        going = min(going, avail / treads)
+        run = treads * going
+        t0, band = band or _band(W, d_lo + d_hi, a, L, True, 2)
+        flight = band / 2
+        # The half landing as deep as a flight is wide where there is room; what is
+        # left over deepens the landing at the doors (level floor).
+        half = min(max(MIN_HALF_LANDING, flight), L - a - run)
+        a = L - run - half
+        inner, outer = (t0 + 1.5 * flight, t0 + 0.5 * flight) if t0 > 0 else (t0 + 0.5 * flight, t0 + 1.5 * flight)
+        t1, t2 = (inner, outer) if band < W else (outer, inner)
+        turn = a + run + half / 2
+        path = np.array([[a, t1], [a + run, t1], [turn, t1], [turn, t2], [a + run, t2], [a, t2]])
+        foot = np.array([[a, t0], [L, t0], [L, t0 + band], [a, t0 + band]])
+        return path, foot, flight, n, going, "U-shaped stair", (t0, band)
+    a = _landing_depth(box, e_lo, lo.doors)                # straight: bottom landing, flight,
+    b = _landing_depth(box, 1 - e_lo, hi.doors)            # top landing at the far end
+    avail = L - a - b
+    if avail < n * 0.1:
+        return None
+    going = min(going, avail / n)
+    run = n * going
+    a += (avail - run) / 2
+    t0, band = (band[0], band[1] / 2) if band else _band(W, d_lo + d_hi, a, a + run, False, 1)
+    path = np.array([[a, t0 + band / 2], [a + run, t0 + band / 2]])
+    foot = np.array([[a, t0], [a + run, t0], [a + run, t0 + band], [a, t0 + band]])
+    return path, foot, band, n, going, "straight flight", (t0, 2 * band)
+
+
+def _unreached(box: _Box, sl: StairwellSlice, foot: Polygon, end: np.ndarray) -> list[str]:
+    """Doors of ``sl`` that open onto the stair or whose side of it does not hold the
+    stair end ``end`` on that floor (plan point where one steps on or off)."""
+    free = shapely.make_valid(sl.polygon.difference(foot.buffer(0.05)))
+    parts = [p for p in shapely.get_parts(free) if p.area > 0]
+    home = next((p for p in parts if p.distance(shapely.Point(end)) < 0.05), None)
+    out = []
+    for ident, jambs in sl.doors:
+        c = jambs.mean(axis=0)
+        inward = box.corner + box.u * box.length / 2 + box.v * box.width / 2 - c
+        probe = shapely.Point(c + 0.45 * inward / max(np.linalg.norm(inward), 1e-9))
+        if home is None or home.distance(probe) > 0.05:
+            out.append(ident)
+    return out
+
+
 def stairwell_stairs(name: str, slices: list[StairwellSlice]) -> tuple[list[dict], list[str]]:
     """Native stair features joining each pair of consecutive floors the stairwell
     ``name`` serves (``slices`` in any order), and the notes that explain them."""
@@ -155,23 +273,33 @@ def stairwell_stairs(name: str, slices: list[StairwellSlice]) -> tuple[list[dict
         notes.append(f"stairwell {name} is not rectangular ({fill:.0%} of its bounding box): "
                      "its stairs are laid out in the box and clipped to the outline")
     ends, how = _ends(box, slices)
-    feats = []
+    pairs = []
     for lo, hi, e_lo, e_hi, how_lo, how_hi in zip(slices, slices[1:], ends, ends[1:], how, how[1:]):
-        sid = f"stair_{name}_{lo.floor}_{hi.floor}"
         if hi.floor != lo.floor + 1:
             notes.append(f"stairwell {name} skips from floor {lo.floor} to {hi.floor}: no stair")
-            continue
-        rise = hi.z - lo.z
-        if not rise > 0:
+        elif not hi.z > lo.z:
             notes.append(f"stairwell {name}: floor {hi.floor} is not above floor {lo.floor}: "
                          "no stair")
-            continue
-        got = _layout(box, lo, hi, e_lo, e_hi, rise)
+        else:
+            pairs.append((lo, hi, e_lo, e_hi, how_lo, how_hi))
+    # Stacked flights share one band (in two-flight widths): the narrowest any pair's
+    # doors allow, on the side most pairs take.
+    bands = [got[-1] for lo, hi, e_lo, e_hi, *_ in pairs
+             if (got := _layout(box, lo, hi, e_lo, e_hi, hi.z - lo.z)) is not None]
+    shared = None
+    if bands and len({round(b[0] + b[1] / 2 > box.width / 2) for b in bands}) == 1:
+        w = min(b[1] for b in bands)
+        shared = (0.0, w) if bands[0][0] == 0.0 else (box.width - w, w)
+    feats = []
+    for lo, hi, e_lo, e_hi, how_lo, how_hi in pairs:
+        sid = f"stair_{name}_{lo.floor}_{hi.floor}"
+        rise = hi.z - lo.z
+        got = _layout(box, lo, hi, e_lo, e_hi, rise, shared)
         if got is None:
             notes.append(f"stairwell {name} ({box.length:.2f} x {box.width:.2f} m) is too "
                          f"small for a stair: floors {lo.floor} and {hi.floor} are not joined")
             continue
-        path_st, foot_st, width, n, going, kind = got
+        path_st, foot_st, width, n, going, kind, _ = got
         path = box.plan(path_st, e_lo)
         foot = Polygon(box.plan(foot_st, e_lo))
         if fill < 0.9:
@@ -188,46 +316,11 @@ def stairwell_stairs(name: str, slices: list[StairwellSlice]) -> tuple[list[dict
                      f"{box.width:.2f} m), bottom on floor {lo.floor} at {_fmt(path[0])}, top "
                      f"on floor {hi.floor} at {_fmt(path[-1])} ({decided}); {n} risers of "
                      f"{rise / n:.3f} m, going {going:.2f} m, flight width {width:.2f} m")
-        for sl, end in ((lo, e_lo), (hi, e_hi)):
-            away = [d for d, j in sl.doors if _door_end(box, j) != end]
-            if away:
-                notes.append(f"stairwell {name} floor {sl.floor}: door(s) {', '.join(away)} "
-                             f"open at the far end from the landing of stair {sid}")
+        step_on = path[0] - 0.5 * (path[1] - path[0]) / np.linalg.norm(path[1] - path[0])
+        step_off = path[-1] + 0.35 * (path[-1] - path[-2]) / np.linalg.norm(path[-1] - path[-2])
+        for sl, end, which in ((lo, step_on, "bottom"), (hi, step_off, "top")):
+            cut = _unreached(box, sl, foot, end)
+            if cut:
+                notes.append(f"stairwell {name} floor {sl.floor}: door(s) {', '.join(cut)} do "
+                             f"not reach the {which} of stair {sid} (no room beside the flights)")
     return feats, notes
-
-
-def _layout(box: _Box, lo: StairwellSlice, hi: StairwellSlice, e_lo: int, e_hi: int,
-            rise: float):
-    """(walking line (K, 2), footprint ring (4, 2), flight width, risers, going, kind),
-    in (s, t) from the bottom's landing end; None if the box is too short."""
-    n, going = _steps(rise)
-    L, W = box.length, box.width
-    if e_lo == e_hi:                       # U-shaped: landing, flight, half landing, flight
-        a = max(_landing_depth(box, e_lo, lo.doors), _landing_depth(box, e_lo, hi.doors))
-        treads = math.ceil(n / 2)
-        avail = L - a - MIN_HALF_LANDING
-        if avail < treads * 0.1:
-            return None
-        going = min(going, avail / treads)
-        run = treads * going
-        # The half landing as deep as a flight is wide where there is room; what is
-        # left over deepens the landing at the doors (level floor).
-        half = min(max(MIN_HALF_LANDING, W / 2), L - a - run)
-        a = L - run - half
-        door_t = [box.local(j.mean(axis=0))[1] for _, j in lo.doors]
-        t1, t2 = (W / 4, 3 * W / 4) if not door_t or np.mean(door_t) <= W / 2 else (3 * W / 4, W / 4)
-        turn = a + run + half / 2
-        path = np.array([[a, t1], [a + run, t1], [turn, t1], [turn, t2], [a + run, t2], [a, t2]])
-        foot = np.array([[a, 0.0], [L, 0.0], [L, W], [a, W]])
-        return path, foot, W / 2, n, going, "U-shaped stair"
-    a = _landing_depth(box, e_lo, lo.doors)                # straight: bottom landing, flight,
-    b = _landing_depth(box, 1 - e_lo, hi.doors)            # top landing at the far end
-    avail = L - a - b
-    if avail < n * 0.1:
-        return None
-    going = min(going, avail / n)
-    run = n * going
-    a += (avail - run) / 2
-    path = np.array([[a, W / 2], [a + run, W / 2]])
-    foot = np.array([[a, 0.0], [a + run, 0.0], [a + run, W], [a, W]])
-    return path, foot, W, n, going, "straight flight"

@@ -76,6 +76,7 @@ def cad_export() -> dict:
     add("2", "DOOR", _door_h(1200, 300), (700, 900))              # corridor - room
     add("2", "HOLE", _door_h(500, 300, 200), (700, 1050))         # corridor - room r, open
     add("2", "VVENT", _rect(1000, 500, 1100, 600), (1046, 1054))  # roof vent
+    add("0", "DOOR", _door_v(2400, 400), (0, 200))                # stairwell A - outside
     for key in floors:
         floors[key]["UNDERLAY_IMG"] = {"opacity": "1", "invert": "0", "scale": "none",
                                        "rotate": "none", "translate": "none"}

@@ -47,33 +47,44 @@ def test_imports_with_its_floors_and_passes_check(plan):
     assert [len(s) for s in stairwells] == [2, 2, 1]
 
 
+def door_probe(door, box):
+    """A point 0.45 m inside the stairwell from a door's centre."""
+    inward = np.asarray(box.centroid.coords[0]) - door.center
+    return Point(door.center + 0.45 * inward / np.linalg.norm(inward))
+
+
 def test_u_shaped_stairs_stack_in_stairwell_a(plan):
     up = stairs_in(plan, BOX_A)
     assert [(s.floor_from, s.floor_to) for s in up] == [(0, 1), (1, 2)]   # none above floor 2
-    door = Point(17.6 + 0.45, 3.0)                                       # south wall, west end
     for s in up:
         assert (s.z_from, s.z_to) == pytest.approx((plan.floor(s.floor_from).z, plan.floor(s.floor_to).z))
-        # The run and the width come from the rise and the box: 19 risers of 3.5/19 m,
-        # flights of half the box width side by side, turning at the east end.
-        assert s.n_steps == math.ceil(3.5 / 0.19) and s.width == pytest.approx(2.25)
-        assert 0.22 <= s.going <= 0.30
-        assert s.direction == pytest.approx([1.0, 0.0])            # away from the door end
-        assert s.top_direction == pytest.approx([-1.0, 0.0])       # back to it
-        assert abs(s.bottom[1] - s.top[1]) == pytest.approx(2.25)  # one flight on each side
+        # The run comes from the rise: 19 risers of 3.5/19 m, comfortable goings.
+        assert s.n_steps == math.ceil(3.5 / 0.19) and 0.22 <= s.going <= 0.30
+        # Two flights side by side, turning at the far (east) end: up away from the door
+        # end, back towards it.
+        assert s.direction == pytest.approx([1.0, 0.0]) and s.top_direction == pytest.approx([-1.0, 0.0])
+        assert abs(s.bottom[1] - s.top[1]) == pytest.approx(s.width)
         assert s.bottom[0] == pytest.approx(s.top[0])              # landing above landing
+        assert 0.8 <= s.width <= 1.5                               # a stair, not the box
         assert BOX_A.buffer(1e-6).contains(s.polygon)
-        assert s.polygon.distance(door) > 1.0                     # the door opens on the landing
         assert s.polygon.bounds[2] == pytest.approx(24.0)          # half landing at the far end
-    # Stacked: the second stair starts where the first arrives.
+        # Every door of the stairwell on both floors opens onto level floor beside it:
+        # the south door at the west end and, on floor 0, the outside door in the east end.
+        for fl in (s.floor_from, s.floor_to):
+            doors = [d for d in plan.floor(fl).doors if BOX_A.exterior.distance(Point(d.center)) < 0.3]
+            assert doors and not any(s.polygon.contains(door_probe(d, BOX_A)) for d in doors)
+    # Stacked: the second stair starts where the first arrives on floor 1's landing.
     assert up[1].bottom == pytest.approx(up[0].bottom)
+    assert up[1].polygon.equals(up[0].polygon)
 
 
 def test_straight_flight_in_stairwell_b(plan):
     (s,) = stairs_in(plan, BOX_B)
-    # Entered at its south end on floor 0 and its north end on floor 1: one flight north.
+    # Entered at its south end on floor 0 and its north end on floor 1: one flight north,
+    # along the west wall, away from the doors in the east wall.
     assert (s.floor_from, s.floor_to) == (0, 1)
     assert s.direction == pytest.approx([0.0, 1.0]) and len(s.path) == 2
-    assert s.width == pytest.approx(5.0)
+    assert s.width == pytest.approx(1.5) and s.polygon.bounds[0] == pytest.approx(-5.0)
     assert s.bottom[1] > 0.5 + 0.9 + 0.3 - 2.0 and s.top[1] < 7.6 - 0.3
     assert s.flight_length == pytest.approx(s.n_steps * s.going) and 0.22 <= s.going <= 0.30
 
@@ -106,6 +117,7 @@ def test_export_quirks_are_noted(exports):
     assert "STAI s14@0 rises to 10.50 m: also on floor(s) 1, 2" in cad
     assert "HALL a13@0 rises to 7.00 m: also on floor(s) 1" in cad
     assert "not plan geometry, skipped: 1 FIRE, 1 VVENT, 1 WIN" in cad
+    assert "do not reach" not in cad               # every stairwell door reaches its stair
 
 
 def test_map_check_reports_implausible_storeys(tmp_path, exports):
@@ -140,7 +152,7 @@ name: aamks_every_floor
 building: {plan}
 agents:
   - id: ff1
-    start: {{entrance: entrance_d17@0}}
+    start: {{entrance: entrance_d27@0}}
     sensors: {{imu: null}}
     plan:
       - stairs: {{to_floor: 2}}
