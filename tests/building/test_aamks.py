@@ -141,3 +141,48 @@ def test_real_cad_export_matches_static(shared_data):
 def test_bad_aamks_files(tmp_path, data, message):
     with pytest.raises(BuildingError, match=message):
         load_building(write(tmp_path, data))
+
+
+SIMPLE_WALK = """
+name: simple_two_firefighters
+building: {plan}
+agents:
+  - id: ff1
+    start: {{entrance: entrance_d2@0}}
+    sensors: {{imu: null}}
+    plan:
+      - walk: {{to: {{room: r1@0}}}}
+      - walk: {{to: {{entrance: entrance_d2@0}}}}
+  - id: ff2
+    start: {{entrance: entrance_d2@0}}
+    sensors: {{imu: null}}
+    plan:
+      - search: {{hand: right, laps: 1}}
+"""
+
+
+@pytest.mark.parametrize("name", ["simple.static.json", "simple.cad.json"])
+def test_real_exports_are_drawn_with_ids_and_walked(shared_data, tmp_path, name):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from firenav_framework.building.check import check_building
+    from firenav_framework.building.plot import draw_floor
+    from firenav_framework.simulator import load_scenario, simulate
+
+    b = load_building(shared_data / "aamks" / name)
+    assert [str(p) for p in check_building(b)] == []
+    fig, ax = plt.subplots()
+    draw_floor(ax, b, 0, labels=True)
+    texts = {t.get_text() for t in ax.texts}
+    plt.close(fig)
+    assert {"d1@0", "d2@0", "entrance_d2@0", "r1", "c2"} <= texts
+    scenario = tmp_path / "walk.yaml"
+    scenario.write_text(SIMPLE_WALK.format(plan=shared_data / "aamks" / name))
+    result = simulate(load_scenario(scenario), 0)
+    f = b.floor(0)
+    for agent in ("ff1", "ff2"):
+        rooms = set(f.room_of(result.truth[agent].position[:, :2]).tolist())
+        assert {0, 1} <= rooms                         # both the room and the corridor
+        assert not f.crosses_wall(result.truth[agent].position[:-1, :2],
+                                  result.truth[agent].position[1:, :2]).any()
