@@ -419,81 +419,70 @@ def _z_of(at: str, item: dict) -> tuple[float, float] | None:
     return _z_range(at, item["z"]) if "z" in item else None
 
 
-def _read_cad(data: dict, where: str, notes: list[str]) -> list[_Floor]:
-    keys = _floor_keys(where, data)
-    floors = [_Floor(k, i) for i, k in enumerate(keys)]
-    skipped: Counter[str] = Counter()
-    tops: list[float] = []           # highest z1 of anything but towers, per floor
-    lows: list[float] = []           # lowest z0 of anything, per floor
-    room_z: list[list[tuple[float, float]]] = []
-    towers: list[tuple[_Floor, str, str, Polygon, float, float]] = []
-    records: dict[str, dict[str, list]] = {}
-    for fl in floors:
-        raw = data[fl.key]
-        at = f"{where}: [{fl.key!r}]"
-        if not isinstance(raw, dict):
-            raise BuildingError(f"{at}: must be an object of ROOM, COR, DOOR, ... lists")
-        recs = {t: _list(at, raw.get(t), t) for t in (*_ROOM_USE, *_DOOR_TYPES, "OBST")}
-        records[fl.key] = recs
-        for t in _NOT_GEOMETRY:
-            if isinstance(raw.get(t), list) and raw[t]:
-                skipped[t] += len(raw[t])
-        top, low = -np.inf, np.inf
-        for t, items in [(t, v) for t, v in raw.items() if isinstance(v, list)]:
-            for k, item in enumerate(items):
-                if isinstance(item, dict) and "z" in item:
-                    try:
-                        z0, z1 = _z_range(f"{at}.{t}[{k}]", item["z"])
-                    except BuildingError:
-                        if t not in _NOT_GEOMETRY:
-                            raise
-                        continue
-                    low = min(low, z0)
-                    if t not in _TOWERS:
-                        top = max(top, z1)
-        tops.append(top)
-        lows.append(low)
-        room_z.append([z for t in ("ROOM", "COR") for k, item in enumerate(recs[t])
-                       if (z := _z_of(f"{at}.{t}[{k}]", item)) is not None])
-    # Levels: the lowest z0 of the ROOM/COR compartments of each floor.
-    for i, fl in enumerate(floors):
-        at = f"{where}: [{fl.key!r}]"
-        zs = room_z[i]
-        if zs:
-            fl.z = min(z0 for z0, _ in zs)
-            if max(z0 for z0, _ in zs) - fl.z > 0.01:
-                notes.append(f"floor {fl.key}: its rooms start at levels from {fl.z:.2f} to "
-                             f"{max(z0 for z0, _ in zs):.2f} m; the lowest is the floor level")
-        elif np.isfinite(lows[i]):
-            fl.z = lows[i]
-            notes.append(f"floor {fl.key}: no z on its rooms; level {fl.z:.2f} m from the "
-                         "lowest of its other records")
-        else:
-            fl.z = floors[i - 1].z + DEFAULT_FLOOR_HEIGHT if i else 0.0
-            notes.append(f"floor {fl.key}: no z on its records; level {fl.z:.2f} m assumed")
-    top_rooms = room_z[-1]
-    _storeys(where, floors, [("the z range of its rooms", max(z1 for _, z1 in top_rooms) - floors[-1].z
-                       if top_rooms else None)], notes)
-    for fl in floors:
-        at = f"{where}: [{fl.key!r}]"
-        recs = records[fl.key]
-        for t, use in _ROOM_USE.items():
-            for k, item in enumerate(recs[t]):
-                poly = _polygon(f"{at}.{t}[{k}]", item.get("points"))
-                name = f"{_LETTER[t]}{item.get('idx', k)}"
-                fl.rooms.append((f"{name}@{fl.key}", name, use, poly))
-                if t == "STAI":
-                    fl.stairwells[name] = poly
-                z = _z_of(f"{at}.{t}[{k}]", item)
-                if t in _TOWERS and z is not None and z[1] >= tops[fl.index] + TOWER_MARGIN:
-                    towers.append((fl, t, name, poly, *z))
-        for t, kind in _DOOR_TYPES.items():
-            for k, item in enumerate(recs[t]):
-                fl.doors.append((f"{_LETTER[t]}{item.get('idx', k)}@{fl.key}", kind,
-                                 _polygon(f"{at}.{t}[{k}]", item.get("points"))))
-        for k, item in enumerate(recs["OBST"]):
-            fl.obstacles.append((f"t{item.get('idx', k)}@{fl.key}",
-                                 _polygon(f"{at}.OBST[{k}]", item.get("points"))))
+def _z_extent(at: str, raw: dict) -> tuple[float, float]:
+    """(lowest z0 of any record, highest z1 of any record but towers) [m] on a floor;
+    an unreadable z on a record that is not plan geometry is passed over."""
+    top, low = -np.inf, np.inf
+    for t, items in raw.items():
+        for k, item in enumerate(items if isinstance(items, list) else []):
+            if not (isinstance(item, dict) and "z" in item):
+                continue
+            try:
+                z0, z1 = _z_range(f"{at}.{t}[{k}]", item["z"])
+            except BuildingError:
+                if t not in _NOT_GEOMETRY:
+                    raise
+                continue
+            low = min(low, z0)
+            if t not in _TOWERS:
+                top = max(top, z1)
+    return low, top
+
+
+def _cad_level(fl: _Floor, below: _Floor | None, room_z: list[tuple[float, float]],
+               low: float, notes: list[str]) -> None:
+    """A floor's level: the lowest z0 of its ROOM/COR records, else of any record."""
+    if room_z:
+        fl.z = min(z0 for z0, _ in room_z)
+        if max(z0 for z0, _ in room_z) - fl.z > 0.01:
+            notes.append(f"floor {fl.key}: its rooms start at levels from {fl.z:.2f} to "
+                         f"{max(z0 for z0, _ in room_z):.2f} m; the lowest is the floor level")
+    elif np.isfinite(low):
+        fl.z = low
+        notes.append(f"floor {fl.key}: no z on its rooms; level {fl.z:.2f} m from the lowest "
+                     "of its other records")
+    else:
+        fl.z = below.z + DEFAULT_FLOOR_HEIGHT if below is not None else 0.0
+        notes.append(f"floor {fl.key}: no z on its records; level {fl.z:.2f} m assumed")
+
+
+def _cad_records(at: str, fl: _Floor, recs: dict[str, list], top: float) -> list[tuple]:
+    """Rooms, doors and obstacles of one floor into ``fl``; the towers drawn on it
+    (floor, type, name, footprint, z0, z1)."""
+    towers = []
+    for t, use in _ROOM_USE.items():
+        for k, item in enumerate(recs[t]):
+            poly = _polygon(f"{at}.{t}[{k}]", item.get("points"))
+            name = f"{_LETTER[t]}{item.get('idx', k)}"
+            fl.rooms.append((f"{name}@{fl.key}", name, use, poly))
+            if t == "STAI":
+                fl.stairwells[name] = poly
+            z = _z_of(f"{at}.{t}[{k}]", item)
+            if t in _TOWERS and z is not None and z[1] >= top + TOWER_MARGIN:
+                towers.append((fl, t, name, poly, *z))
+    for t, kind in _DOOR_TYPES.items():
+        for k, item in enumerate(recs[t]):
+            fl.doors.append((f"{_LETTER[t]}{item.get('idx', k)}@{fl.key}", kind,
+                             _polygon(f"{at}.{t}[{k}]", item.get("points"))))
+    for k, item in enumerate(recs["OBST"]):
+        fl.obstacles.append((f"t{item.get('idx', k)}@{fl.key}",
+                             _polygon(f"{at}.OBST[{k}]", item.get("points"))))
+    return towers
+
+
+def _slice_towers(floors: list[_Floor], towers: list[tuple], notes: list[str]) -> None:
+    """Put a slice ``<name>.<floor>`` of each tower on every other floor whose level lies
+    in its z range (as Aamks does)."""
     for home, t, name, poly, z0, z1 in towers:
         reached = [fl for fl in floors if fl is not home and z0 - 1e-6 <= fl.z < z1 - 1e-6]
         for fl in reached:
@@ -504,6 +493,32 @@ def _read_cad(data: dict, where: str, notes: list[str]) -> list[_Floor]:
         if reached:
             notes.append(f"{t} {name}@{home.key} rises to {z1:.2f} m: also on floor(s) "
                          f"{', '.join(fl.key for fl in reached)} as {name}.<floor>")
+
+
+def _read_cad(data: dict, where: str, notes: list[str]) -> list[_Floor]:
+    floors = [_Floor(k, i) for i, k in enumerate(_floor_keys(where, data))]
+    skipped: Counter[str] = Counter()
+    scans = []
+    for fl in floors:
+        raw = data[fl.key]
+        at = f"{where}: [{fl.key!r}]"
+        if not isinstance(raw, dict):
+            raise BuildingError(f"{at}: must be an object of ROOM, COR, DOOR, ... lists")
+        recs = {t: _list(at, raw.get(t), t) for t in (*_ROOM_USE, *_DOOR_TYPES, "OBST")}
+        for t in _NOT_GEOMETRY:
+            if isinstance(raw.get(t), list) and raw[t]:
+                skipped[t] += len(raw[t])
+        room_z = [z for t in ("ROOM", "COR") for k, item in enumerate(recs[t])
+                  if (z := _z_of(f"{at}.{t}[{k}]", item)) is not None]
+        scans.append((at, recs, room_z, *_z_extent(at, raw)))
+    for i, (fl, (_, _, room_z, low, _)) in enumerate(zip(floors, scans)):
+        _cad_level(fl, floors[i - 1] if i else None, room_z, low, notes)
+    top_rooms = scans[-1][2]
+    _storeys(where, floors, [("the z range of its rooms", max(z1 for _, z1 in top_rooms)
+                              - floors[-1].z if top_rooms else None)], notes)
+    towers = [tw for fl, (at, recs, _, _, top) in zip(floors, scans)
+              for tw in _cad_records(at, fl, recs, top)]
+    _slice_towers(floors, towers, notes)
     if skipped:
         notes.append("not plan geometry, skipped: " + ", ".join(
             f"{n} {t}" for t, n in sorted(skipped.items())))
