@@ -423,16 +423,6 @@ def _check_cycles(v: _Validator, specs: list[ComponentSpec]) -> None:
             visit(s.id, [s.id])
 
 
-def building_problem(path: Path) -> str | None:
-    """Why the plan at ``path`` cannot be used (it is loaded once to find out), or None."""
-    from .building import BuildingError, load_building
-    try:
-        load_building(path)
-    except BuildingError as exc:
-        return f"the building plan cannot be loaded: {exc}"
-    return None
-
-
 def validate_document(doc: LocatedDocument, *, registry: Registry | None = None,
                       base_dir: Path | None = None, overrides: dict[tuple, str] | None = None
                       ) -> PipelineSpec:
@@ -457,7 +447,8 @@ def validate_document(doc: LocatedDocument, *, registry: Registry | None = None,
                 v.problem(("building",), f"building plan '{data['building']}' not found "
                           f"(looked for {building})")
             else:
-                problem = building_problem(building)
+                from .building.loader import plan_problem
+                problem = plan_problem(building)
                 if problem:
                     v.problem(("building",), problem)
     source_building = any(getattr(s.cls, "provides_building", False) for s in specs

@@ -7,7 +7,7 @@ from pathlib import Path
 from .limits import check_file_size
 from .model import Building, BuildingError
 
-__all__ = ["load_building", "read_plan_json"]
+__all__ = ["load_building", "read_plan_json", "plan_problem"]
 
 
 def read_plan_json(path: Path):
@@ -60,3 +60,13 @@ def load_building(path: str | Path, layer_map: str | Path | None = None) -> Buil
         return parse_aamks(data, where=str(path), source=path, default_name=path.stem)
     raise BuildingError(f"{path}: not a firenav plan (GeoJSON FeatureCollection) nor an "
                         "Aamks export (floors/obstacles)")
+
+
+def plan_problem(path: str | Path) -> str | None:
+    """Why the plan at ``path`` cannot be used (it is loaded once to find out), or None;
+    for validators that report it at the line naming the plan."""
+    try:
+        load_building(path)
+    except BuildingError as exc:
+        return f"the building plan cannot be loaded: {exc}"
+    return None

@@ -500,8 +500,8 @@ def _validate(doc: LocatedDocument, base_dir: Path) -> Scenario:
                                         f"bundled plan ({', '.join(bundled_plans())}) nor a "
                                         f"file (looked for {building_path})"))
         else:
-            from ..pipeline import building_problem
-            if (why := building_problem(building_path)) is not None:
+            from ..building.loader import plan_problem
+            if (why := plan_problem(building_path)) is not None:
                 problems.append(doc.problem(("building",), why))
     gaits: dict[str, Gait] = {}
     for name, over in model.gaits.items():
