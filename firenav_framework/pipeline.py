@@ -445,6 +445,11 @@ def validate_document(doc: LocatedDocument, *, registry: Registry | None = None,
             if not building.exists():
                 v.problem(("building",), f"building plan '{data['building']}' not found "
                           f"(looked for {building})")
+            else:
+                from .building.loader import plan_problem
+                problem = plan_problem(building)
+                if problem:
+                    v.problem(("building",), problem)
     source_building = any(s.cls.provides_building for s in specs if s.kind == "source")
     _check_wiring(v, specs, building is not None or source_building)
     if v.problems:

@@ -122,8 +122,12 @@ class Runner:
     def _load_building(self) -> Any:
         if not self._building_cache:
             if self.spec.building is not None:
-                from .building import load_building
-                self._building_cache.append(load_building(self.spec.building))
+                from .building import BuildingError, load_building
+                try:
+                    self._building_cache.append(load_building(self.spec.building))
+                except BuildingError as exc:
+                    where = f"{self.spec.file}:{self.spec.document.locate(('building',))[0]}"
+                    raise PipelineBuildError(f"{where}: building: {exc}") from None
             else:
                 for comp in self.components.values():
                     if isinstance(comp, Source) and comp.building() is not None:
@@ -132,6 +136,24 @@ class Runner:
                 else:
                     raise NoBuilding("this pipeline has no building")
         return self._building_cache[0]
+
+    def _check_plans(self) -> None:
+        """Warn when the pipeline's ``building:`` and a source's own plan (a simulator
+        scenario's) are different plans: the map-aided plugins use the pipeline's."""
+        if self.spec.building is None:
+            return
+        mine = Path(self.spec.building).resolve()
+        for cid, comp in self.components.items():
+            other = comp.building() if isinstance(comp, Source) else None
+            theirs = getattr(other, "source", None)
+            if theirs is None or Path(theirs).resolve() == mine or _same_bytes(mine, Path(theirs)):
+                continue
+            text = (f"the pipeline's building {self.spec.building} is not the plan source "
+                    f"'{cid}' brings ({theirs}): map-aided plugins use the pipeline's, while "
+                    f"'{cid}' moves in its own; remove one of them if that is not meant")
+            log.warning(text)
+            self.diagnostics.append(Diagnostic(t=0.0, component="runner", level="warning",
+                                               code="plan_mismatch", text=text))
 
     def _publish(self, cid: str, port: str, msg: Message) -> None:
         spec = self._specs[cid]
@@ -165,6 +187,7 @@ class Runner:
                     self._tick_streams.add(stream)
                     self.timeline.add_tick(period, stream)
                 self.bus.subscribe(stream, sub)
+        self._check_plans()
         for cs in self.spec.components:
             if cs.kind == "constraint":
                 parent = self.components[cs.parent]
@@ -323,6 +346,13 @@ class Runner:
         delay = wall0 + (t - t0) / self.speed - time.monotonic()
         if delay > 0:
             time.sleep(delay)
+
+
+def _same_bytes(a: Path, b: Path) -> bool:
+    try:
+        return a.read_bytes() == b.read_bytes()
+    except OSError:
+        return False
 
 
 def run_pipeline(spec: PipelineSpec, **kw: Any) -> RunResult:

@@ -5,8 +5,9 @@ CSV columns (one row per pose, ENU metres, radians, seconds)::
     t,agent,x,y,z,heading,var_x,cov_xy,var_y,var_z,var_heading,floor,trusted
 
 ``floor`` is empty when unknown. GeoJSON holds one LineString per track; its
-coordinates are WGS84 longitude/latitude when the building has a geographic
-reference, otherwise local ENU metres (stated in the collection's ``crs_note``).
+positions are RFC 7946 WGS84 longitude, latitude and ellipsoidal height when the
+building has a geographic reference, otherwise plan metres, and the collection's
+``coordinate_frame`` member says which.
 """
 from __future__ import annotations
 
@@ -16,11 +17,14 @@ import math
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import TYPE_CHECKING, Iterable
 
 import numpy as np
 
 from .messages import GroundTruth, Message, PoseEstimate
+
+if TYPE_CHECKING:
+    from .building.georef import GeoRef
 
 CSV_HEADER = "t,agent,x,y,z,heading,var_x,cov_xy,var_y,var_z,var_heading,floor,trusted"
 
@@ -146,19 +150,27 @@ def read_csv(path: Path) -> dict[str, Track]:
     return {a: b.build(a) for a, b in sorted(by_agent.items())}
 
 
-def geojson(tracks: dict[str, dict[str, Track]],
-            to_lonlat: Callable[[np.ndarray], np.ndarray] | None = None) -> dict:
-    """A GeoJSON FeatureCollection with one LineString per (stream, agent) track."""
+def geojson(tracks: dict[str, dict[str, Track]], georef: "GeoRef | None" = None) -> dict:
+    """A GeoJSON FeatureCollection with one LineString per (stream, agent) track.
+
+    With ``georef`` (the building's), positions are RFC 7946 [longitude, latitude,
+    ellipsoidal height] on WGS84; without, plan metres [x, y, z], and the top-level
+    ``coordinate_frame`` member says that they are local (not WGS84).
+    """
+    from .building.georef import coordinate_frame
     features = []
     for stream, agents in tracks.items():
         for agent, tr in agents.items():
-            xy = tr.position[:, :2] if to_lonlat is None else to_lonlat(tr.position[:, :2])
-            coords = [[round(float(a), 9), round(float(b), 9), round(float(z), 4)]
-                      for (a, b), z in zip(xy, tr.position[:, 2])]
+            if georef is None:
+                pos = [[round(float(x), 4), round(float(y), 4), round(float(z), 4)]
+                       for x, y, z in tr.position]
+            else:
+                pos = [[round(float(lon), 9), round(float(lat), 9), round(float(h), 3)]
+                       for lon, lat, h in georef.to_wgs84(tr.position)]
             last = tr.cov[-1] if len(tr) else np.full((4, 4), np.nan)
             features.append({
                 "type": "Feature",
-                "geometry": {"type": "LineString", "coordinates": coords},
+                "geometry": {"type": "LineString", "coordinates": pos},
                 "properties": {
                     "stream": stream, "agent": agent,
                     "t_start": float(tr.t[0]) if len(tr) else None,
@@ -169,12 +181,10 @@ def geojson(tracks: dict[str, dict[str, Track]],
                                         if np.isfinite(last[0, 0]) else None),
                 },
             })
-    out = {"type": "FeatureCollection", "features": features}
-    if to_lonlat is None:
-        out["crs_note"] = "local ENU metres (x east, y north) from the building origin"
-    return out
+    return {"type": "FeatureCollection", "coordinate_frame": coordinate_frame(georef),
+            "features": features}
 
 
 def write_geojson(path: Path, tracks: dict[str, dict[str, Track]],
-                  to_lonlat: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
-    path.write_text(json.dumps(geojson(tracks, to_lonlat), indent=1) + "\n", encoding="utf-8")
+                  georef: "GeoRef | None" = None) -> None:
+    path.write_text(json.dumps(geojson(tracks, georef), indent=1) + "\n", encoding="utf-8")

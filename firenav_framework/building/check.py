@@ -15,8 +15,9 @@ import shapely
 from shapely.geometry import LineString, Point
 
 from .model import Building, Floor
+from .wall_merge import overlapping_pairs
 
-__all__ = ["Problem", "check_building", "JOIN_TOL", "JAMB_TOL"]
+__all__ = ["Problem", "check_building", "wall_cover", "open_stretches", "JOIN_TOL", "JAMB_TOL"]
 
 #: Wall ends closer than this [m] to another wall are joined to it.
 JOIN_TOL = 0.05
@@ -24,6 +25,12 @@ JOIN_TOL = 0.05
 JAMB_TOL = 0.15
 #: Shortest stretch [m] of a room outline without wall or door that counts as open.
 MIN_OPEN = 0.10
+#: Storey heights [m] outside this range are reported (a mezzanine or a sports hall may
+#: be real; an export that took a vent or a tall obstacle for the ceiling is not).
+MIN_STOREY, MAX_STOREY = 2.0, 6.0
+#: Stair steps outside these are reported: risers above MAX_RISER [m], goings [m]
+#: outside MIN_GOING..MAX_GOING (a flight drawn over a whole stairwell, or squeezed).
+MAX_RISER, MIN_GOING, MAX_GOING = 0.25, 0.20, 0.50
 
 
 @dataclass(frozen=True)
@@ -59,6 +66,7 @@ def check_building(building: Building) -> list[Problem]:
         out += _check_duplicate_walls(floor)
         out += _check_open_rooms(floor)
         out += _check_room_overlap(floor)
+    out += _check_storeys(building)
     out += _check_stairs(building)
     out += _check_entrances(building)
     rank = {"error": 0, "warning": 1}
@@ -161,49 +169,41 @@ def _check_wall_ends(floor: Floor) -> list[Problem]:
 
 def _check_duplicate_walls(floor: Floor) -> list[Problem]:
     segs, idx = _drawn_walls(floor)
-    if len(segs) < 2:
-        return []
-    tree = shapely.STRtree(shapely.linestrings(segs))
-    a, b = tree.query(shapely.linestrings(segs), predicate="dwithin", distance=JOIN_TOL)
-    keep = a < b
-    a, b = a[keep], b[keep]
     out = []
-    for i, j in zip(a, b):
-        p, q = segs[i], segs[j]
-        u = p[1] - p[0]
-        length = np.hypot(*u)
-        u = u / length
-        rel = q - p[0]
-        off = np.abs(rel[:, 0] * u[1] - rel[:, 1] * u[0])    # distance of q's ends from p's line
-        if off.max() > JOIN_TOL:
-            continue
-        s = rel @ u
-        lo, hi = max(0.0, s.min()), min(length, s.max())
-        if hi - lo <= JOIN_TOL:
-            continue
-        mid = p[0] + u * (lo + hi) / 2
-        wi, wj = floor.wall_ids[idx[i]], floor.wall_ids[idx[j]]
+    for o in overlapping_pairs(segs, JOIN_TOL):
+        wi, wj = floor.wall_ids[idx[o.i]], floor.wall_ids[idx[o.j]]
         name = f"walls {wi} and {wj}" if wi != wj else f"wall {wi} (two of its segments)"
-        out.append(Problem("error", "duplicate_wall", floor.index, _xy(mid), name,
-                           f"overlap for {hi - lo:.2f} m (drawn twice)"))
+        out.append(Problem("error", "duplicate_wall", floor.index, _xy(o.mid), name,
+                           f"overlap for {o.length:.2f} m (drawn twice)"))
     return out
+
+
+def wall_cover(walls: np.ndarray, gap_jambs: list[np.ndarray]):
+    """What closes a room outline: the walls (W, 2, 2) widened by ``JOIN_TOL`` and the door
+    and opening lines (jambs (2, 2)) widened by ``JAMB_TOL``; None if nothing."""
+    cover = list(shapely.buffer(shapely.linestrings(walls), JOIN_TOL)) if len(walls) else []
+    cover += [LineString(j).buffer(JAMB_TOL) for j in gap_jambs]
+    return shapely.union_all(cover) if cover else None
+
+
+def open_stretches(polygon, cover) -> list[LineString]:
+    """Stretches (longer than ``MIN_OPEN``) of a room outline that ``cover`` leaves open."""
+    rest = polygon.boundary if cover is None else polygon.boundary.difference(cover)
+    if rest.is_empty:
+        return []
+    return [p for p in shapely.get_parts(shapely.line_merge(rest)) if p.length >= MIN_OPEN]
 
 
 def _check_open_rooms(floor: Floor) -> list[Problem]:
     if not floor.rooms:
         return []
     segs, _ = _drawn_walls(floor)
-    cover = list(shapely.buffer(shapely.linestrings(segs), JOIN_TOL)) if len(segs) else []
-    cover += [LineString(g.jambs).buffer(JAMB_TOL) for g in floor.doors + floor.openings]
-    cover_all = shapely.union_all(cover) if cover else None
+    cover = wall_cover(segs, [g.jambs for g in floor.doors + floor.openings])
     out = []
     for room in floor.rooms:
         if not room.polygon.is_valid:
             continue   # reported as invalid already
-        rest = room.polygon.boundary if cover_all is None else room.polygon.boundary.difference(cover_all)
-        for piece in shapely.get_parts(shapely.line_merge(rest) if not rest.is_empty else rest):
-            if piece.length < MIN_OPEN:
-                continue
+        for piece in open_stretches(room.polygon, cover):
             mid = piece.interpolate(0.5, normalized=True)
             out.append(Problem("error", "room_open", floor.index, _xy((mid.x, mid.y)),
                                f"room {room.id}",
@@ -246,6 +246,39 @@ def _check_stairs(building: Building) -> list[Problem]:
             if outline.distance(Point(end)) > JOIN_TOL:
                 out.append(Problem("error", "stair_end_outside", fl, _xy(end), label,
                                    f"{name} end lies outside the building on floor {fl}"))
+        steps = f"{s.n_steps} steps of {abs(s.step_height):.3f} m over {s.flight_length:.2f} m"
+        if abs(s.step_height) > MAX_RISER or s.going < MIN_GOING:
+            out.append(Problem("warning", "stair_steep", s.floor_from, _xy(s.bottom), label,
+                               f"{steps} (going {s.going:.2f} m): steeper than a stair "
+                               f"(risers up to {MAX_RISER} m, goings from {MIN_GOING} m)"))
+        elif s.going > MAX_GOING:
+            out.append(Problem("warning", "stair_shallow", s.floor_from, _xy(s.bottom), label,
+                               f"{steps} (going {s.going:.2f} m): longer than a stair of "
+                               f"this rise (goings up to {MAX_GOING} m); is the walking "
+                               "line the flight?"))
+    return out
+
+
+def _check_storeys(building: Building) -> list[Problem]:
+    """Storey heights outside MIN_STOREY..MAX_STOREY, and heights that disagree with the
+    gap to the next floor level."""
+    out = []
+    floors = building.floors
+    for k, f in enumerate(floors):
+        label = f"floor {f.index} ({f.name})" if f.name and f.name != str(f.index) else f"floor {f.index}"
+        if k + 1 < len(floors):
+            gap = floors[k + 1].z - f.z
+            if abs(gap - f.height) > 0.01:
+                out.append(Problem("warning", "floor_height_mismatch", f.index, None, label,
+                                   f"height {f.height:.2f} m, but floor {k + 1} is {gap:.2f} m "
+                                   f"above it (level {f.z:.2f} -> {floors[k + 1].z:.2f} m)"))
+            storey, how = gap, f"from level {f.z:.2f} to {floors[k + 1].z:.2f} m"
+        else:
+            storey, how = f.height, "its height (top floor)"
+        if not MIN_STOREY <= storey <= MAX_STOREY:
+            out.append(Problem("warning", "storey_height", f.index, None, label,
+                               f"storey {storey:.2f} m high ({how}), outside the usual "
+                               f"{MIN_STOREY:g}-{MAX_STOREY:g} m: check the floor levels"))
     return out
 
 

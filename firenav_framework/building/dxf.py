@@ -4,7 +4,8 @@ The table (``data/dxf_layers.yaml`` is the built-in default and documents every 
 gives the drawing unit, a layer prefix naming the floor, floor levels, and shell
 patterns of layer names per feature kind. Entities on unmapped layers are ignored;
 entities of a kind the importer cannot use on a mapped layer are counted in
-``Building.notes``. Features get ids ``<kind><floor>_<DXF handle>`` so that an error
+``Building.notes``, and so are walls drawn twice (merged into one). Coordinates, floor
+numbers and arc flattening are bounded by :mod:`.limits`. Features get ids ``<kind><floor>_<DXF handle>`` so that an error
 or a ``map check`` problem points at the entity in the CAD program.
 """
 from __future__ import annotations
@@ -24,6 +25,8 @@ from shapely.geometry import Polygon
 from .aamks import door_feature_from_rectangle
 from .bundled import DATA_DIR
 from .geojson_format import DEFAULT_FLOOR_HEIGHT, parse_geojson
+from .limits import (MAX_ARC_SEGMENTS, MAX_FEATURES, MAX_FLOORS, MAX_VERTICES,
+                     check_coordinates, check_count)
 from .model import Building, BuildingError
 
 __all__ = ["read_dxf", "LayerMap", "DEFAULT_LAYER_MAP"]
@@ -112,35 +115,103 @@ def _feat(kind: str, geometry: dict | None, **props) -> dict:
 
 
 def _xy(points: Any, scale: float) -> np.ndarray:
-    return np.array([[p[0], p[1]] for p in points], dtype=float) * scale
+    return np.array([[p[0], p[1]] for p in points], dtype=float).reshape(-1, 2) * scale
 
 
-def _vertices(e: Any, scale: float) -> tuple[np.ndarray, bool] | None:
+def _arc_points(centre: np.ndarray, radius: float, a0: float, a1: float,
+                notes: Counter[str]) -> np.ndarray:
+    """Points [m] of a counter-clockwise arc from angle ``a0`` to ``a1`` [rad], within
+    ``ARC_SAGITTA`` of the curve but in at most ``MAX_ARC_SEGMENTS`` pieces (counted in
+    ``notes`` when that makes them coarser)."""
+    sweep = (a1 - a0) % (2 * math.pi) or 2 * math.pi
+    if radius <= ARC_SAGITTA:
+        n = 1
+    else:
+        n = math.ceil(sweep / (2 * math.acos(1 - ARC_SAGITTA / radius)))
+    if n > MAX_ARC_SEGMENTS:
+        notes[f"arcs flattened coarser than {ARC_SAGITTA} m to stay within "
+              f"{MAX_ARC_SEGMENTS} pieces each"] += 1
+        n = MAX_ARC_SEGMENTS
+    ang = a0 + np.linspace(0.0, sweep, n + 1)
+    return centre + radius * np.column_stack([np.cos(ang), np.sin(ang)])
+
+
+def _bulged(pts: np.ndarray, bulges: np.ndarray, closed: bool, where: str,
+            notes: Counter[str]) -> np.ndarray:
+    """A polyline's vertices (K, 2) [m] with each bulged edge replaced by its arc."""
+    from ezdxf.math import bulge_to_arc
+
+    if not np.any(bulges):
+        return pts
+    ends = np.vstack([pts, pts[:1]]) if closed else pts
+    out = [pts[:1]]
+    for k in range(len(ends) - 1):
+        a, b, bulge = ends[k], ends[k + 1], float(bulges[k])
+        if bulge == 0.0 or not np.any(a != b):
+            out.append(ends[k + 1:k + 2])
+            continue
+        centre, sa, ea, radius = bulge_to_arc(a, b, bulge)
+        centre = np.array([centre.x, centre.y])
+        check_coordinates(where, np.array([centre - radius, centre + radius]))
+        arc = _arc_points(centre, radius, sa, ea, notes)
+        if bulge < 0:          # clockwise: bulge_to_arc gives the arc from b to a
+            arc = arc[::-1]
+        out.append(arc[1:])
+        check_count(where, "vertices after flattening its arcs", sum(map(len, out)),
+                    MAX_VERTICES)
+    got = np.vstack(out)
+    return got[:-1] if closed else got
+
+
+def _vertices(e: Any, scale: float, where: str, notes: Counter[str]
+              ) -> tuple[np.ndarray, bool] | None:
     """(points (K, 2) [m], closed) of a linear entity, or None if it is not one. Arcs and
-    polyline bulges are flattened to within ``ARC_SAGITTA``."""
-    from ezdxf import path
-
+    polyline bulges are flattened to within ``ARC_SAGITTA`` (at most ``MAX_ARC_SEGMENTS``
+    pieces per arc); coordinates are checked against the plan limits first."""
     t = e.dxftype()
     if t == "LINE":
-        return _xy([e.dxf.start, e.dxf.end], scale), False
-    if t == "POLYLINE" and (e.is_3d_polyline or e.is_poly_face_mesh or e.is_polygon_mesh):
+        pts = _xy([e.dxf.start, e.dxf.end], scale)
+        check_coordinates(where, pts)
+        return pts, False
+    if t == "ARC":
+        centre = _xy([e.dxf.center], scale)[0]
+        radius = float(e.dxf.radius) * scale
+        check_coordinates(where, np.array([centre - abs(radius), centre + abs(radius)]))
+        if not radius > 0:
+            return None
+        return _arc_points(centre, radius, math.radians(e.dxf.start_angle),
+                           math.radians(e.dxf.end_angle), notes), False
+    if t == "LWPOLYLINE":
+        check_count(where, "vertices", len(e), MAX_VERTICES)
+        raw = np.array(list(e.get_points("xyb")), dtype=float).reshape(-1, 3)
+        closed = bool(e.closed)
+    elif t == "POLYLINE" and e.is_2d_polyline:
+        check_count(where, "vertices", len(e.vertices), MAX_VERTICES)
+        raw = np.array([(v.dxf.location[0], v.dxf.location[1], v.dxf.bulge)
+                        for v in e.vertices], dtype=float).reshape(-1, 3)
+        closed = bool(e.is_closed)
+    else:
         return None
-    if t not in ("LWPOLYLINE", "POLYLINE", "ARC"):
-        return None
-    pts = _xy(path.make_path(e).flattening(ARC_SAGITTA / scale), scale)
-    closed = t != "ARC" and bool(e.closed if t == "LWPOLYLINE" else e.is_closed)
+    pts = raw[:, :2] * scale
+    check_coordinates(where, pts)
+    if not np.all(np.isfinite(raw[:, 2])):
+        raise BuildingError(f"{where}: polyline bulge values are not finite")
+    pts = _bulged(pts, raw[:, 2], closed, where, notes)
     if closed and len(pts) > 1 and np.allclose(pts[0], pts[-1]):
         pts = pts[:-1]
     return pts, closed
 
 
-def _point(e: Any, scale: float) -> np.ndarray | None:
+def _point(e: Any, scale: float, where: str) -> np.ndarray | None:
     t = e.dxftype()
     if t == "POINT":
-        return _xy([e.dxf.location], scale)[0]
-    if t == "CIRCLE":
-        return _xy([e.dxf.center], scale)[0]
-    return None
+        p = _xy([e.dxf.location], scale)
+    elif t == "CIRCLE":
+        p = _xy([e.dxf.center], scale)
+    else:
+        return None
+    check_coordinates(where, p)
+    return p[0]
 
 
 def read_dxf(path: str | Path, layer_map: str | Path | None = None) -> Building:
@@ -177,12 +248,17 @@ def read_dxf(path: str | Path, layer_map: str | Path | None = None) -> Building:
         kind, floor = table.classify(e.dxf.layer)
         if kind is None:
             continue
-        floors_used.add(floor)
-        ident = f"{kind}{floor}_{e.dxf.handle}"
         where = f"{path}: entity {e.dxf.handle} ({e.dxftype()} on layer {e.dxf.layer})"
-        feat = _entity_feature(e, kind, floor, ident, scale, table, where)
+        if floor >= MAX_FLOORS:
+            raise BuildingError(f"{where}: the layer name puts it on floor {floor}; a "
+                                f"building has at most {MAX_FLOORS} floors (check the layer "
+                                "names and the floor_pattern of the layer map)")
+        floors_used.add(floor)
+        check_count(str(path), "entities on mapped layers", len(feats) + 1, MAX_FEATURES)
+        ident = f"{kind}{floor}_{e.dxf.handle}"
+        feat = _entity_feature(e, kind, floor, ident, scale, table, where, skipped)
         if feat is None:
-            skipped[f"{e.dxftype()} on {kind} layers"] += 1
+            skipped[f"skipped {e.dxftype()} on {kind} layers (not usable)"] += 1
         else:
             feats.append(feat)
     if not floors_used:
@@ -195,29 +271,30 @@ def read_dxf(path: str | Path, layer_map: str | Path | None = None) -> Building:
         level = table.floors[i] if i < len(table.floors) else FloorLevel(z=i * DEFAULT_FLOOR_HEIGHT)
         feats.insert(i, _feat("floor", None, floor=i, z=level.z, height=level.height,
                               name=level.name or str(i)))
-    notes += [f"skipped {count} {what} (not usable)" for what, count in sorted(skipped.items())]
+    notes += [f"{what}: {count}" for what, count in sorted(skipped.items())]
     building = parse_geojson({"type": "FeatureCollection", "name": path.stem, "features": feats},
-                             where=str(path), source=path, default_name=path.stem)
-    building.notes.extend(notes)
+                             where=str(path), source=path, default_name=path.stem,
+                             merge_walls=True)
+    building.notes[:0] = notes
     return building
 
 
 def _entity_feature(e: Any, kind: str, floor: int, ident: str, scale: float,
-                    table: LayerMap, where: str) -> dict | None:
+                    table: LayerMap, where: str, notes: Counter[str]) -> dict | None:
     if kind in ("anchor", "entrance"):
-        p = _point(e, scale)
+        p = _point(e, scale, where)
         if p is not None:
             props = {"floor": floor, "id": ident}
             if kind == "anchor":
                 props |= {"anchor_kind": "uwb", "height": table.anchor_height}
             return _feat(kind, {"type": "Point", "coordinates": p.tolist()}, **props)
         if kind == "entrance" and e.dxftype() == "LINE":
-            a, b = _vertices(e, scale)[0]
+            a, b = _vertices(e, scale, where, notes)[0]
             heading = math.degrees(math.atan2(b[1] - a[1], b[0] - a[0]))
             return _feat(kind, {"type": "Point", "coordinates": a.tolist()}, floor=floor,
                          id=ident, heading_deg=heading)
         return None
-    got = _vertices(e, scale)
+    got = _vertices(e, scale, where, notes)
     if got is None:
         return None
     pts, closed = got

@@ -18,15 +18,21 @@ import shapely
 from shapely.geometry import Polygon, shape
 from shapely.geometry.base import BaseGeometry
 
+from .check import JOIN_TOL
+from .crs_input import to_plan_metres
 from .georef import GeoRef
+from .limits import (MAX_FEATURES, MAX_ITEMS_PER_FLOOR, MAX_WALL_CONTACTS_PER_FLOOR,
+                     MAX_WALL_SEGMENTS, MAX_WALL_SEGMENTS_PER_FLOOR, check_coordinates,
+                     check_count, check_floor_count, check_level)
 from .model import (Anchor, Building, BuildingError, Door, Entrance, Floor, Obstacle, Room,
                     Stair)
+from .wall_merge import merge_overlapping
 
 __all__ = ["read_geojson", "parse_geojson", "write_geojson", "dump_plan", "KINDS",
            "DEFAULT_FLOOR_HEIGHT"]
 
 KINDS = ("floor", "wall", "door", "opening", "room", "stair", "obstacle", "anchor",
-         "entrance", "georef")
+         "entrance", "georef", "stair_footprint")
 
 #: Floor-to-floor height [m] assumed by importers that do not know it.
 DEFAULT_FLOOR_HEIGHT = 3.0
@@ -71,6 +77,11 @@ class _Feature:
         return str(value)
 
     def geometry(self, *types: str) -> BaseGeometry:
+        # GIS tools save single shapes as one-part Multi* geometries: take the part.
+        g = self.geom
+        if (g is not None and g.geom_type not in types and g.geom_type.startswith("Multi")
+                and g.geom_type[5:] in types and len(g.geoms) == 1):
+            self.geom = g.geoms[0]
         if self.geom is None or self.geom.geom_type not in types:
             got = "no geometry" if self.geom is None else self.geom.geom_type
             raise self.fail(f"a {self.kind} needs a {' or '.join(types)} geometry, got {got}")
@@ -84,13 +95,13 @@ def _parse_geometry(where: str, geom: Any) -> BaseGeometry | None:
         raise BuildingError(f"{where}: geometry must be a GeoJSON geometry object")
     try:
         g = shape(_xy_only(geom))
+    except RecursionError:
+        raise BuildingError(f"{where}: {geom.get('type')} coordinates nested too deeply") from None
     except Exception as exc:  # shapely raises assorted types for malformed input
         raise BuildingError(f"{where}: malformed {geom.get('type')} geometry ({exc})") from None
     if g.is_empty:
         raise BuildingError(f"{where}: empty {geom.get('type')} geometry")
-    coords = np.array([c for part in _coords(g) for c in part], dtype=float).reshape(-1, 2)
-    if not np.all(np.isfinite(coords)):
-        raise BuildingError(f"{where}: geometry has NaN or infinite coordinates")
+    check_coordinates(where, np.concatenate([c[:, :2] for c in _coords(g)]))
     return g
 
 
@@ -118,27 +129,33 @@ def _coords(g: BaseGeometry) -> list[np.ndarray]:
 
 def read_geojson(path: str | Path) -> Building:
     """Load a native plan. Raises :class:`BuildingError` naming the file and feature."""
+    from .loader import read_plan_json
     path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise BuildingError(f"{path}: no such file") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise BuildingError(f"{path}: not valid JSON ({exc})") from None
-    return parse_geojson(data, where=str(path), source=path, default_name=path.stem)
+    return parse_geojson(read_plan_json(path), where=str(path), source=path,
+                         default_name=path.stem)
 
 
 def parse_geojson(data: Any, *, where: str = "<plan>", source: Path | None = None,
-                  default_name: str = "building") -> Building:
-    """Build the model from an already-decoded native plan (a FeatureCollection dict)."""
+                  default_name: str = "building", merge_walls: bool = False) -> Building:
+    """Build the model from an already-decoded native plan (a FeatureCollection dict).
+
+    ``merge_walls`` (importers): collinear wall segments drawn twice are merged into one
+    and listed in ``Building.notes``; in a native plan ``map check`` reports them instead.
+    A collection in WGS84 or a projected CRS (see :mod:`.crs_input`) is converted to
+    plan metres first, and the plan keeps the georef used.
+    """
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         raise BuildingError(f"{where}: a plan must be a GeoJSON FeatureCollection")
+    data, crs_georef, crs_notes = to_plan_metres(data, where)
     raw = data.get("features")
     if not isinstance(raw, list):
         raise BuildingError(f"{where}: 'features' must be a list")
+    check_count(where, "features", len(raw), MAX_FEATURES)
     features = []
     for i, f in enumerate(raw):
         props = f.get("properties") if isinstance(f, dict) else None
+        if isinstance(props, dict) and props.get("id") is None and isinstance(f.get("id"), (str, int)):
+            props = {**props, "id": f["id"]}          # the Feature's own id (RFC 7946 3.2)
         fid = props.get("id") if isinstance(props, dict) else None
         at = f"{where}: feature {i}" + (f" (id {fid!r})" if fid is not None else "")
         if not isinstance(f, dict) or f.get("type") != "Feature":
@@ -151,10 +168,15 @@ def parse_geojson(data: Any, *, where: str = "<plan>", source: Path | None = Non
                                 f"got {kind!r}")
         features.append(_Feature(at, kind, props, _parse_geometry(at, f.get("geometry"))))
     name = data.get("name") if isinstance(data.get("name"), str) else default_name
-    return _assemble(features, name=name, source=source, where=where)
+    building = _assemble(features, name=name, source=source, where=where, merge_walls=merge_walls)
+    if crs_georef is not None:
+        building.georef = crs_georef
+        building.notes[:0] = crs_notes
+    return building
 
 
-def _assemble(features: list[_Feature], *, name: str, source: Path | None, where: str) -> Building:
+def _assemble(features: list[_Feature], *, name: str, source: Path | None, where: str,
+              merge_walls: bool) -> Building:
     """The model from parsed features: floors first, then everything placed on them."""
     floors_meta: dict[int, tuple[float, float, str, BaseGeometry | None]] = {}
     for f in features:
@@ -167,12 +189,15 @@ def _assemble(features: list[_Feature], *, name: str, source: Path | None, where
                 outline = f.geometry("Polygon", "MultiPolygon")
                 if not outline.is_valid:
                     raise f.fail("floor outline polygon is not valid (self-intersecting?)")
-            floors_meta[i] = (f.number("z"), f.number("height", positive=True),
-                              f.text("name", str(i)), outline)
+            z, height = f.number("z"), f.number("height", positive=True)
+            check_level(f.where, "z", z)
+            check_level(f.where, "height", height)
+            floors_meta[i] = (z, height, f.text("name", str(i)), outline)
     if not floors_meta:
         raise BuildingError(f"{where}: no 'floor' features: declare each floor with "
                             "kind=floor, floor=<index>, z=<level m>, height=<m>")
     n = len(floors_meta)
+    check_floor_count(where, n)
     if sorted(floors_meta) != list(range(n)):
         raise BuildingError(f"{where}: floors must be numbered 0..{n - 1} without gaps, "
                             f"got {sorted(floors_meta)}")
@@ -190,8 +215,10 @@ def _assemble(features: list[_Feature], *, name: str, source: Path | None, where
             raise f.fail(f"floor {i} is not a declared floor (floors 0..{n - 1})")
         return i
 
+    footprints = {f.text("id"): f.geometry("Polygon") for f in features
+                  if f.kind == "stair_footprint"}
     for f in features:
-        if f.kind in ("floor", "georef"):
+        if f.kind in ("floor", "georef", "stair_footprint"):
             continue
         fl = floor_of(f)
         ident = fid(f, fl)
@@ -227,7 +254,8 @@ def _assemble(features: list[_Feature], *, name: str, source: Path | None, where
             if n_steps < 0 or ("n_steps" in f.props and n_steps == 0):
                 raise f.fail(f"property 'n_steps' must be a positive count, got {n_steps}")
             bucket["stairs"].append(Stair(ident, fl, to, path, f.number("width", 1.0, positive=True),
-                                          z_from, z_to, n_steps))
+                                          z_from, z_to, n_steps,
+                                          _footprint(f) or footprints.get(ident)))
         elif f.kind == "anchor":
             p = np.asarray(f.geometry("Point").coords[0])
             z = floors_meta[fl][0] + f.number("height", 0.0)
@@ -242,25 +270,60 @@ def _assemble(features: list[_Feature], *, name: str, source: Path | None, where
             p = np.asarray(f.geometry("Point").coords[0])
             try:
                 georefs.append(GeoRef.at_point(p, f.number("lat"), f.number("lon"),
-                                               f.number("bearing_deg", 0.0)))
+                                               f.number("bearing_deg", 0.0),
+                                               f.number("alt", 0.0)))
             except ValueError as exc:
                 raise f.fail(str(exc)) from None
     if len(georefs) > 1:
         raise BuildingError(f"{where}: more than one georef feature")
 
     floors = []
+    notes: list[str] = []
+    total_segments = 0
     for i in range(n):
         z, height, fname, outline = floors_meta[i]
         b = per_floor[i]
-        floors.append(make_floor(i, z, height, fname, b["walls"], b["wall_ids"], doors=b["doors"],
-                                 openings=b["openings"], rooms=b["rooms"], stairs=b["stairs"],
-                                 obstacles=b["obstacles"], drawn_outline=outline))
+        at = f"{where}: floor {i}"
+        check_count(at, "rooms, doors, openings, obstacles and stairs",
+                    sum(len(b[k]) for k in ("doors", "openings", "rooms", "stairs", "obstacles")),
+                    MAX_ITEMS_PER_FLOOR)
+        if merge_walls and b["walls"]:
+            segs, ids, merges = merge_overlapping(np.array(b["walls"]), b["wall_ids"], JOIN_TOL)
+            b["walls"], b["wall_ids"] = list(segs), ids
+            if merges:
+                notes.append(f"floor {i}: {len(merges)} wall(s) drawn twice merged: " + "; ".join(
+                    f"{', '.join(others) or 'a repeated segment'} into {kept} at "
+                    f"({p[0]:.2f}, {p[1]:.2f})" for kept, others, p in merges))
+        floor = make_floor(i, z, height, fname, b["walls"], b["wall_ids"], doors=b["doors"],
+                           openings=b["openings"], rooms=b["rooms"], stairs=b["stairs"],
+                           obstacles=b["obstacles"], drawn_outline=outline, where=at)
+        total_segments += len(floor.walls)
+        check_count(where, "wall segments in the building", total_segments, MAX_WALL_SEGMENTS)
+        floors.append(floor)
     ents = [_entrance(f, floors, ident, fl, p, heading, door)
             for f, ident, fl, p, heading, door in entrances]
     return _with_context(where, lambda: Building(name=name, floors=floors, anchors=anchors,
                                                  entrances=ents,
                                                  georef=georefs[0] if georefs else None,
-                                                 source=source))
+                                                 source=source, notes=notes))
+
+
+def _footprint(f: _Feature) -> Polygon | None:
+    """A stair's optional ``footprint`` property: its outline ring [[x, y], ...] [m]."""
+    ring = f.props.get("footprint")
+    if ring is None:
+        return None
+    try:
+        pts = np.asarray(ring, dtype=float)
+    except (TypeError, ValueError):
+        raise f.fail("property 'footprint' must be a ring of [x, y] points") from None
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
+        raise f.fail("property 'footprint' must be a ring of at least three [x, y] points")
+    check_coordinates(f.where, pts)
+    poly = Polygon(pts)
+    if not poly.is_valid or poly.area <= 0:
+        raise f.fail("property 'footprint' is not a valid polygon (self-intersecting or flat)")
+    return poly
 
 
 def _with_context(where: str, make):
@@ -290,8 +353,15 @@ def _segments(f: _Feature, g: BaseGeometry) -> list[np.ndarray]:
 def make_floor(index: int, z: float, height: float, name: str, walls: list[np.ndarray],
                wall_ids: list[str], *, doors: list[Door], openings: list[Door],
                rooms: list[Room], stairs: list[Stair], obstacles: list[Obstacle],
-               drawn_outline: BaseGeometry | None = None) -> Floor:
-    """A Floor with obstacle edges appended to the walls and each door tied to its wall."""
+               drawn_outline: BaseGeometry | None = None, where: str = "") -> Floor:
+    """A Floor with obstacle edges appended to the walls and each door tied to its wall.
+
+    Raises :class:`BuildingError` (prefixed with ``where``) when the floor exceeds the
+    segment or wall-contact limits of :mod:`.limits`.
+    """
+    check_count(where or f"floor {index}", "wall segments (obstacle edges included)",
+                len(walls) + sum(len(o.polygon.exterior.coords) - 1 for o in obstacles),
+                MAX_WALL_SEGMENTS_PER_FLOOR)
     all_walls = list(walls)
     ids = list(wall_ids)
     n_drawn = len(all_walls)
@@ -306,8 +376,22 @@ def make_floor(index: int, z: float, height: float, name: str, walls: list[np.nd
                   walls=np.array(all_walls).reshape(-1, 2, 2), wall_ids=ids,
                   wall_is_obstacle=is_obst, doors=doors, openings=openings, rooms=rooms,
                   stairs=stairs, obstacles=obstacles, drawn_outline=drawn_outline)
+    _check_wall_contacts(floor, where or f"floor {index}")
     _attach_doors_to_walls(floor)
     return floor
+
+
+def _check_wall_contacts(floor: Floor, where: str) -> None:
+    """Refuse a floor whose walls touch or cross each other more than
+    :data:`~.limits.MAX_WALL_CONTACTS_PER_FLOOR` times (counted up to the limit only)."""
+    w = floor.walls
+    if len(w) < 2:
+        return
+    cap = len(w) + 2 * MAX_WALL_CONTACTS_PER_FLOOR  # each segment touches itself once
+    if floor.wall_index.count_hits(w[:, 0], w[:, 1], cap + 1) > cap:
+        raise BuildingError(f"{where}: its {len(w)} wall segments touch or cross each other "
+                            f"more than {MAX_WALL_CONTACTS_PER_FLOOR} times (real walls meet "
+                            "at their ends; is the drawing damaged or on the wrong layer?)")
 
 
 def _attach_doors_to_walls(floor: Floor, tol: float = 0.15) -> None:
@@ -397,8 +481,10 @@ def write_geojson(building: Building, path: str | Path) -> None:
             feats.append(_feature("room", _polygon(r.polygon), floor=fl.index, id=r.id,
                                   name=r.name, use=r.use))
         for s in fl.stairs:
-            feats.append(_feature("stair", _line(s.path), floor=fl.index, id=s.id,
-                                  floor_to=s.floor_to, width=s.width, n_steps=s.n_steps))
+            props = dict(floor_to=s.floor_to, width=s.width, n_steps=s.n_steps)
+            if s.polygon.symmetric_difference(s.default_polygon()).area > 1e-6:
+                props["footprint"] = _r(shapely.get_exterior_ring(s.polygon).coords)
+            feats.append(_feature("stair", _line(s.path), floor=fl.index, id=s.id, **props))
         for o in fl.obstacles:
             feats.append(_feature("obstacle", _polygon(o.polygon), floor=fl.index, id=o.id))
     for a in building.anchors:
@@ -413,8 +499,8 @@ def write_geojson(building: Building, path: str | Path) -> None:
         feats.append(_feature("entrance", {"type": "Point", "coordinates": _r(e.position)}, **props))
     if building.georef is not None:
         g = building.georef
-        feats.append(_feature("georef", {"type": "Point", "coordinates": [0.0, 0.0]},
-                              lat=g.lat, lon=g.lon, bearing_deg=g.bearing))
+        feats.append(_feature("georef", {"type": "Point", "coordinates": list(map(float, g.anchor))},
+                              lat=g.lat, lon=g.lon, alt=g.alt, bearing_deg=g.bearing))
     doc = {"type": "FeatureCollection", "name": building.name, "features": feats}
     Path(path).write_text(dump_plan(doc), encoding="utf-8")
 

@@ -24,6 +24,8 @@ __all__ = ["SegmentIndex", "segments_hit_bruteforce", "segments_near_sorted", "E
 
 #: Distance [m] below which a point counts as lying on a segment's line.
 EPS = 1e-9
+#: Most (cell, segment) entries a grid holds (160 MB of int64); beyond, cells grow.
+MAX_GRID_ITEMS = 20_000_000
 
 
 # --------------------------------------------------------------------------- predicates
@@ -127,6 +129,20 @@ def _row_range(y0, y1, oy, h, ny, pad):
 
 
 @njit(cache=True)
+def _count_items(segs, ox, oy, h, nx, ny, pad):
+    """Number of (cell, segment) entries the grid would hold (sizes it before allocating)."""
+    total = 0
+    for w in range(segs.shape[0]):
+        x0, y0, x1, y1 = segs[w, 0, 0], segs[w, 0, 1], segs[w, 1, 0], segs[w, 1, 1]
+        j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
+        for j in range(j0, j1 + 1):
+            i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
+            if i1 >= i0:
+                total += i1 - i0 + 1
+    return total
+
+
+@njit(cache=True)
 def _build_cells(segs, ox, oy, h, nx, ny, pad):
     """CSR lists of the segments touching each cell: (start (nx*ny+1,), items)."""
     counts = np.zeros(nx * ny + 1, dtype=np.int64)
@@ -187,8 +203,10 @@ def _first_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, stop_at_any)
 
 
 @njit(cache=True)
-def _all_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, count_only, out_m, out_w):
-    """Every (move, segment) pair that touches; returns the count (fills out_* unless count_only)."""
+def _all_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, count_only, out_m, out_w,
+              limit):
+    """Every (move, segment) pair that touches; returns the count (fills out_* unless
+    count_only). Stops once ``limit`` pairs are found (a negative limit: no limit)."""
     stamp = np.full(segs.shape[0], -1, dtype=np.int64)
     k_out = 0
     for m in range(p0.shape[0]):
@@ -210,6 +228,8 @@ def _all_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, count_only, ou
                             out_m[k_out] = m
                             out_w[k_out] = w
                         k_out += 1
+                        if k_out == limit:
+                            return k_out
     return k_out
 
 
@@ -327,14 +347,22 @@ class SegmentIndex:
             raise ValueError(f"grid cell must be a positive size in metres, got {cell}")
         # Cap the grid at about 4 million cells whatever the extent.
         cell = max(cell, math.sqrt(span[0] * span[1] / 4e6))
-        self.cell = float(cell)
-        self.origin = lo - self.cell  # one empty cell of margin on each side
-        self.shape = (int(span[0] // self.cell) + 3, int(span[1] // self.cell) + 3)  # (nx, ny)
         # Padding (m) that makes cell membership conservative for points on cell borders.
         self._pad = 1e-7 * max(1.0, float(np.abs(segs).max()) if len(segs) else 1.0)
-        self._start, self._items = _build_cells(self.segments, float(self.origin[0]),
-                                                float(self.origin[1]), self.cell,
-                                                self.shape[0], self.shape[1], self._pad)
+        while True:
+            self.cell = float(cell)
+            self.origin = lo - self.cell  # one empty cell of margin on each side
+            self.shape = (int(span[0] // self.cell) + 3, int(span[1] // self.cell) + 3)  # (nx, ny)
+            # Long segments criss-crossing the grid (a damaged plan) would register in
+            # many cells each: coarser cells keep the lists to MAX_GRID_ITEMS entries.
+            if _count_items(*self._cell_args()) <= MAX_GRID_ITEMS:
+                break
+            cell *= 2.0
+        self._start, self._items = _build_cells(*self._cell_args())
+
+    def _cell_args(self):
+        return (self.segments, float(self.origin[0]), float(self.origin[1]), self.cell,
+                self.shape[0], self.shape[1], self._pad)
 
     def __len__(self) -> int:
         return len(self.segments)
@@ -368,12 +396,20 @@ class SegmentIndex:
         """Every touching (move index, segment index) pair, sorted by move then segment."""
         a, b = _as_moves(p0, p1)
         dummy = np.empty(0, dtype=np.int64)
-        n = _all_hits(a, b, *self._grid_args(), self._pad, True, dummy, dummy)
+        n = _all_hits(a, b, *self._grid_args(), self._pad, True, dummy, dummy, -1)
         out_m = np.empty(n, dtype=np.int64)
         out_w = np.empty(n, dtype=np.int64)
-        _all_hits(a, b, *self._grid_args(), self._pad, False, out_m, out_w)
+        _all_hits(a, b, *self._grid_args(), self._pad, False, out_m, out_w, -1)
         order = np.lexsort((out_w, out_m))
         return out_m[order], out_w[order]
+
+    def count_hits(self, p0: np.ndarray, p1: np.ndarray, limit: int) -> int:
+        """Number of touching (move, segment) pairs, counted up to ``limit`` (> 0) only, so
+        the cost is bounded however many there are."""
+        a, b = _as_moves(p0, p1)
+        dummy = np.empty(0, dtype=np.int64)
+        return int(_all_hits(a, b, *self._grid_args(), self._pad, True, dummy, dummy,
+                             max(1, int(limit))))
 
     def nearest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance (N,) [m], closest point (N, 2), segment index (N,)); inf/NaN/-1 if empty."""

@@ -108,7 +108,8 @@ class Stair:
     ``path`` (K, 2) [m] is the walking line from the ``bottom`` (on ``floor_from``) to the
     ``top`` (on ``floor_to``); a U-shaped stair has its turn in the path. ``z_from`` and
     ``z_to`` are the floor levels [m]. ``polygon`` is the stair's footprint (by default
-    the path widened to ``width``). Height grows linearly with distance along the path.
+    the path widened to ``width``; a stair laid out in a stairwell covers its flights and
+    half landing). Height grows linearly with distance along the path.
     """
 
     id: str
@@ -125,8 +126,11 @@ class Stair:
         if not self.n_steps:
             self.n_steps = max(1, round(abs(self.rise) / NOMINAL_STEP_HEIGHT))
         if self.polygon is None:
-            self.polygon = LineString(self.path).buffer(self.width / 2, cap_style="flat",
-                                                        join_style="mitre")
+            self.polygon = self.default_polygon()
+
+    def default_polygon(self) -> Polygon:
+        """The footprint when none is given: the walking line widened to ``width``."""
+        return LineString(self.path).buffer(self.width / 2, cap_style="flat", join_style="mitre")
 
     @property
     def bottom(self) -> np.ndarray:
@@ -149,6 +153,18 @@ class Stair:
     def length(self) -> float:
         """Horizontal length of the walking line [m]."""
         return float(np.sum(np.linalg.norm(np.diff(self.path, axis=0), axis=1)))
+
+    @property
+    def flight_length(self) -> float:
+        """Horizontal length of the flights [m]: with three or more path segments the first
+        and last are flights and those between landings; otherwise the whole line."""
+        seg = np.linalg.norm(np.diff(self.path, axis=0), axis=1)
+        return float(seg[0] + seg[-1]) if len(seg) >= 3 else float(seg.sum())
+
+    @property
+    def going(self) -> float:
+        """Mean tread depth [m] (flight length over the number of steps)."""
+        return self.flight_length / self.n_steps
 
     @property
     def direction(self) -> np.ndarray:

@@ -499,6 +499,10 @@ def _validate(doc: LocatedDocument, base_dir: Path) -> Scenario:
             problems.append(doc.problem(("building",), f"'{model.building}' is neither a "
                                         f"bundled plan ({', '.join(bundled_plans())}) nor a "
                                         f"file (looked for {building_path})"))
+        else:
+            from ..building.loader import plan_problem
+            if (why := plan_problem(building_path)) is not None:
+                problems.append(doc.problem(("building",), why))
     gaits: dict[str, Gait] = {}
     for name, over in model.gaits.items():
         try:

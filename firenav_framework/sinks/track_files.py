@@ -46,7 +46,8 @@ class CsvTracks(FileSink):
 
 
 class GeoJsonTracks(FileSink):
-    """Write each agent's track as a GeoJSON LineString (lon/lat when the building is georeferenced)."""
+    """Write each agent's track as a GeoJSON LineString: RFC 7946 WGS84 when the building
+    is georeferenced, else plan metres, said in the file's ``coordinate_frame``."""
 
     name = "geojson_tracks"
     inputs = (PoseEstimate,)
@@ -61,11 +62,10 @@ class GeoJsonTracks(FileSink):
         self._store(stream, msg)
 
     def finish(self) -> None:
-        to_lonlat = None
+        georef = None
         try:
             georef = getattr(self.ctx.building, "georef", None)
-            to_lonlat = georef.to_lonlat if georef is not None else None
         except RuntimeError:  # no building in this pipeline: local coordinates
             pass
-        write_geojson(self.out_path(self.params.file), self._store.tracks(), to_lonlat)
+        write_geojson(self.out_path(self.params.file), self._store.tracks(), georef)
 PLUGINS = [CsvTracks, GeoJsonTracks]

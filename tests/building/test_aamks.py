@@ -84,7 +84,13 @@ def test_real_static_export(shared_data):
     b = load_building(shared_data / "aamks" / "simple.static.json")
     f = b.floor(0)
     assert (f.z, f.height) == (0.0, 3.5)
-    assert len(f.walls) == 11 and not f.obstacles
+    # 11 wall rectangles, two of them repeats (obstacles 0 and 5 are one rectangle, 6 is
+    # the lower part of 1, cm 805..1004): merged into 9 segments and noted.
+    assert len(f.walls) == 9 and not f.obstacles
+    assert ("floor 0: 2 wall(s) drawn twice merged: obstacle5@0 into obstacle0@0 at (10.02, "
+            "5.67); obstacle6@0 into obstacle1@0 at (10.02, 14.04)") in b.notes
+    merged = f.walls[f.wall_ids.index("obstacle1@0")]
+    np.testing.assert_allclose(sorted(merged[:, 1]), [8.03, 20.06])   # cm 805..2004 + 2 cm
     assert {r.id: round(r.polygon.area, 4) for r in f.rooms} == {"r1@0": 80.0425, "c2@0": 72.2475}
     doors = {d.id: d for d in f.doors}
     assert doors["d1@0"].center.tolist() == pytest.approx([10.0, 7.6])
@@ -129,8 +135,54 @@ def test_real_cad_export_matches_static(shared_data):
     ({"floors": {"0": {"obstacles": {"a": 1}}}}, r"obstacles must be a list"),
     ({"obstacles": {"1": "[[0, 0]]"}}, r"'obstacles' must map floor names to lists of polygons"),
     ({"0": {"ROOM": ["[[0,0],[1,0],[1,1]]"]}}, r"\['0'\]: ROOM must be a list of objects"),
-    ({"0": {"ROOM": [{"points": "[[0,0],[100,0],[100,100]]", "z": "[0"}]}}, r"z must be \[z0, z1\]"),
+    ({"0": {"ROOM": [{"points": "[[0,0],[100,0],[100,100]]", "z": "[0"}]}}, r"ROOM\[0\]: z string is not a JSON array"),
+    ({"0": {"ROOM": [{"points": "[[0,0],[100,0],[100,100]]", "z": "[0, 1, 2]"}]}}, r"z must be \[z0, z1\]"),
 ])
 def test_bad_aamks_files(tmp_path, data, message):
     with pytest.raises(BuildingError, match=message):
         load_building(write(tmp_path, data))
+
+
+SIMPLE_WALK = """
+name: simple_two_firefighters
+building: {plan}
+agents:
+  - id: ff1
+    start: {{entrance: entrance_d2@0}}
+    sensors: {{imu: null}}
+    plan:
+      - walk: {{to: {{room: r1@0}}}}
+      - walk: {{to: {{entrance: entrance_d2@0}}}}
+  - id: ff2
+    start: {{entrance: entrance_d2@0}}
+    sensors: {{imu: null}}
+    plan:
+      - search: {{hand: right, laps: 1}}
+"""
+
+
+@pytest.mark.parametrize("name", ["simple.static.json", "simple.cad.json"])
+def test_real_exports_are_drawn_with_ids_and_walked(shared_data, tmp_path, name):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from firenav_framework.building.check import check_building
+    from firenav_framework.building.plot import draw_floor
+    from firenav_framework.simulator import load_scenario, simulate
+
+    b = load_building(shared_data / "aamks" / name)
+    assert [str(p) for p in check_building(b)] == []
+    fig, ax = plt.subplots()
+    draw_floor(ax, b, 0, labels=True)
+    texts = {t.get_text() for t in ax.texts}
+    plt.close(fig)
+    assert {"d1@0", "d2@0", "entrance_d2@0", "r1", "c2"} <= texts
+    scenario = tmp_path / "walk.yaml"
+    scenario.write_text(SIMPLE_WALK.format(plan=shared_data / "aamks" / name))
+    result = simulate(load_scenario(scenario), 0)
+    f = b.floor(0)
+    for agent in ("ff1", "ff2"):
+        rooms = set(f.room_of(result.truth[agent].position[:, :2]).tolist())
+        assert {0, 1} <= rooms                         # both the room and the corridor
+        assert not f.crosses_wall(result.truth[agent].position[:-1, :2],
+                                  result.truth[agent].position[1:, :2]).any()

@@ -1,6 +1,8 @@
 """`map check` problems on deliberately broken plans, and the bundled plans passing."""
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from firenav_framework.building import bundled_plan, bundled_plans, load_building
@@ -88,7 +90,19 @@ def test_stair_that_connects_nothing():
     ok = codes(plan(*CLOSED, *[dict(f, properties=dict(f["properties"], floor=1, id=f["properties"]["id"] + "1"))
                               for f in CLOSED], feat("stair", line((1, 1), (3, 1)), id="s", floor_to=1),
                     floors=2))
-    assert ok == []
+    # Joined now; only its pitch is off (3 m in 2 m).
+    assert ok == [("warning", "stair_steep", "stair s", (1.0, 1.0))]
+
+
+@pytest.mark.parametrize("run, code", [(2.0, "stair_steep"), (4.2, None), (9.0, "stair_shallow")])
+def test_stair_pitch(run, code):
+    # A 3 m rise in 15 steps of 0.20 m (the nominal step) over `run` metres: goings of
+    # 0.13 m are a ladder, 0.28 m a stair, 0.60 m a walking line drawn over the landings.
+    hall = [feat("wall", line((0, 0), (10, 0), (10, 3), (0, 3), (0, 0)), id="w", floor=f)
+            for f in (0, 1)]
+    stair = feat("stair", line((0.5, 1.5), (0.5 + run, 1.5)), id="s", floor_to=1)
+    got = [c for c in codes(plan(*hall, stair, floors=2)) if c[1].startswith("stair")]
+    assert got == ([] if code is None else [("warning", code, "stair s", (0.5, 1.5))])
 
 
 def test_stair_end_outside_the_building():
@@ -106,13 +120,22 @@ def test_self_intersecting_room():
     assert "self-intersecting" in p.message
 
 
-def test_real_aamks_export_has_duplicate_walls(shared_data):
-    b = load_building(shared_data / "aamks" / "simple.static.json")
-    got = codes(b)
+def test_real_aamks_exports_pass(shared_data):
+    # The static export draws two walls twice: merged on import, so not an error.
+    for name in ("simple.static.json", "simple.cad.json"):
+        assert codes(load_building(shared_data / "aamks" / name)) == []
+
+
+def test_walls_drawn_twice_in_a_native_plan_are_reported(shared_data):
+    # The same real walls, written out as a native plan without the importer's merge.
+    from firenav_framework.building.aamks import _read_static, _static_features
+    from firenav_framework.building.geojson_format import parse_geojson
+    data = json.loads((shared_data / "aamks" / "simple.static.json").read_text())
+    feats = _static_features(_read_static(data, "simple", []), [])
+    b = parse_geojson({"type": "FeatureCollection", "features": feats})
     # Obstacles 0 and 5 are the same rectangle; 6 repeats the lower part of 1 (cm 805..1004).
-    assert got == [("error", "duplicate_wall", "walls obstacle0@0 and obstacle5@0", (10.02, 5.67)),
-                   ("error", "duplicate_wall", "walls obstacle1@0 and obstacle6@0", (10.02, 9.045))]
-    assert codes(load_building(shared_data / "aamks" / "simple.cad.json")) == []
+    assert codes(b) == [("error", "duplicate_wall", "walls obstacle0@0 and obstacle5@0", (10.02, 5.67)),
+                        ("error", "duplicate_wall", "walls obstacle1@0 and obstacle6@0", (10.02, 9.045))]
 
 
 @pytest.mark.parametrize("name", bundled_plans())

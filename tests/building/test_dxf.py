@@ -51,7 +51,7 @@ def test_two_floor_drawing(tmp_path):
     assert b.anchors[0].position.tolist() == [2.0, 1.5, 1.0]
     assert b.entrances[0].heading == pytest.approx(np.pi / 2)
     assert "DXF unit: Centimeters ($INSUNITS 5)" in b.notes
-    assert any("skipped 1 TEXT on wall layers" in n for n in b.notes)
+    assert "skipped TEXT on wall layers (not usable): 1" in b.notes
     assert [p.code for p in check_building(b)] == []
     # Through the door: free; through the wall beside it: blocked.
     assert f0.crosses_wall(np.array([[2.0, -0.5], [1.0, -0.5]]), np.array([[2.0, 0.5], [1.0, 0.5]])).tolist() \
@@ -163,3 +163,22 @@ def test_arcs_and_bulges_are_flattened(tmp_path):
     assert (2.0 - np.linalg.norm(bay.mean(axis=1) - [4.0, 2.0], axis=1)).max() <= 0.05
     assert f.outline.area == pytest.approx(16 + np.pi * 2**2 / 2, rel=0.02)
     assert len(on_circle([2.0, 6.0], 1.0)) >= 4
+
+
+def test_walls_drawn_twice_are_merged(tmp_path):
+    # The same wall on two layers, and a second polyline repeating part of the outline.
+    doc = ezdxf.new()
+    doc.units = ezdxf.units.M
+    msp = doc.modelspace()
+    msp.add_lwpolyline([(0, 0), (4, 0), (4, 3), (0, 3)], close=True, dxfattribs={"layer": "WALL"})
+    msp.add_line((0, 0), (4, 0), dxfattribs={"layer": "A-WALL"})
+    msp.add_line((4, 1), (4, 2.5), dxfattribs={"layer": "WALL"})
+    msp.add_lwpolyline([(0, 0), (4, 0), (4, 3), (0, 3)], close=True, dxfattribs={"layer": "ROOM"})
+    doc.saveas(tmp_path / "twice.dxf")
+    b = load_building(tmp_path / "twice.dxf")
+    f = b.floor(0)
+    assert len(f.walls) == 4
+    assert sorted(np.round(np.linalg.norm(f.walls[:, 1] - f.walls[:, 0], axis=1), 6)) == [3, 3, 4, 4]
+    (note,) = [n for n in b.notes if "drawn twice merged" in n]
+    assert note.startswith("floor 0: 2 wall(s) drawn twice merged:")
+    assert check_building(b) == []
