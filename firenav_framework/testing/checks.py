@@ -59,8 +59,8 @@ from ..messages import Diagnostic, Message
 from ..registry import plugin_class_problem
 from .harness import HOST, UNDER_TEST, Recorder, Session
 
-__all__ = ["CheckFailed", "NotApplicable", "PluginCase", "CHECKS", "check",
-           "parameter_problems", "host_for"]
+__all__ = ["CheckFailed", "NotApplicable", "PluginCase", "CHECKS", "PASSED", "check",
+           "registrar", "run_registered", "raise_problems", "parameter_problems", "host_for"]
 
 
 class CheckFailed(AssertionError):
@@ -125,18 +125,54 @@ class PluginCase:
         return self._clean
 
 
-Check = Callable[[PluginCase], None]
+Check = Callable[[Any], None]
 
 #: The checks in the order they run: name -> check.
 CHECKS: dict[str, Check] = {}
+#: What a check that passed answers in :func:`run_registered`'s results.
+PASSED = "passed"
 
 
-def check(name: str) -> Callable[[Check], Check]:
-    """Register a check under ``name`` (its docstring's first line says what it asserts)."""
-    def register(fn: Check) -> Check:
-        CHECKS[name] = fn
-        return fn
+def registrar(table: dict[str, Check]) -> Callable[[str], Callable[[Check], Check]]:
+    """A decorator ``@register(name)`` adding checks to ``table`` in definition order (a
+    check's docstring's first line says what it asserts)."""
+    def register(name: str) -> Callable[[Check], Check]:
+        def add(fn: Check) -> Check:
+            table[name] = fn
+            return fn
+        return add
     return register
+
+
+check = registrar(CHECKS)
+
+
+def run_registered(table: dict[str, Check], case: Any, checks: Iterable[str] | None = None,
+                   exclude: Iterable[str] = ()) -> dict[str, Any]:
+    """Run ``checks`` of ``table`` (default: all, minus ``exclude``) on ``case``: name ->
+    ``"passed"``, ``"n/a: <why>"`` or the exception it raised.
+
+    The ``class`` check always runs first; when it fails nothing else can run, and the
+    other checks are not attempted.
+    """
+    names = list(table) if checks is None else list(checks)
+    unknown = [n for n in [*names, *exclude] if n not in table]
+    if unknown:
+        raise ValueError(f"unknown checks {unknown}; known: {', '.join(table)}")
+    names = ["class", *(n for n in names if n not in set(exclude) and n != "class")]
+    results: dict[str, Any] = {}
+    for name in names:
+        try:
+            table[name](case)
+        except NotApplicable as why:
+            results[name] = f"n/a: {why}"
+        except Exception as exc:
+            results[name] = exc
+            if name == "class":
+                break
+        else:
+            results[name] = PASSED
+    return results
 
 
 # -- class ------------------------------------------------------------------------------

@@ -23,7 +23,8 @@ import numpy as np
 
 from ..codecs import Codec, FrameError, to_raw_frames
 from ..messages import RawFrame
-from .checks import CheckFailed, NotApplicable, parameter_problems, raise_problems
+from .checks import (CheckFailed, NotApplicable, parameter_problems, raise_problems, registrar,
+                     run_registered)
 
 __all__ = ["CODEC_CHECKS", "CodecCase", "check_codec", "run_codec_checks"]
 
@@ -69,15 +70,9 @@ def _decode_all(codec: Codec, frames: Iterable[RawFrame]) -> list[Any]:
     return out
 
 
-CodecCheck = Callable[[CodecCase], None]
-CODEC_CHECKS: dict[str, CodecCheck] = {}
-
-
-def _codec_check(name: str) -> Callable[[CodecCheck], CodecCheck]:
-    def register(fn: CodecCheck) -> CodecCheck:
-        CODEC_CHECKS[name] = fn
-        return fn
-    return register
+#: The codec checks in the order they run: name -> check.
+CODEC_CHECKS: dict[str, Callable[[CodecCase], None]] = {}
+_codec_check = registrar(CODEC_CHECKS)
 
 
 @_codec_check("class")
@@ -179,21 +174,10 @@ def check_codec_deterministic(case: CodecCase) -> None:
                           f"records in two fresh codecs")
 
 
-def run_codec_checks(case: CodecCase) -> dict[str, Any]:
-    """Every codec check on ``case``: name -> "passed", "n/a: <why>" or the exception."""
-    results: dict[str, Any] = {}
-    for name, fn in CODEC_CHECKS.items():
-        try:
-            fn(case)
-        except NotApplicable as why:
-            results[name] = f"n/a: {why}"
-        except Exception as exc:
-            results[name] = exc
-            if name == "class":
-                break
-        else:
-            results[name] = "passed"
-    return results
+def run_codec_checks(case: CodecCase, checks: Iterable[str] | None = None,
+                     exclude: Iterable[str] = ()) -> dict[str, Any]:
+    """Run the codec checks on ``case``: name -> "passed", "n/a: <why>" or the exception."""
+    return run_registered(CODEC_CHECKS, case, checks, exclude)
 
 
 def check_codec(cls: type[Codec], options: dict | None = None, *,

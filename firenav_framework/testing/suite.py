@@ -10,13 +10,11 @@ from pydantic import BaseModel
 
 from ..contract import Component, Estimator
 from ..messages import Message
-from .checks import CHECKS, CheckFailed, NotApplicable, PluginCase, host_for
+from .checks import CHECKS, PASSED, CheckFailed, PluginCase, host_for, run_registered
 from .harness import Recorder, validated
 from .samples import sample_world
 
 __all__ = ["check_plugin", "run_checks", "plugin_case", "ConformanceError", "PASSED"]
-
-PASSED = "passed"
 
 
 class ConformanceError(AssertionError):
@@ -68,31 +66,9 @@ def plugin_case(cls: type[Component], params: dict | BaseModel | None = None, *,
 def run_checks(case: PluginCase, checks: Iterable[str] | None = None,
                exclude: Iterable[str] = ()) -> dict[str, Any]:
     """Run ``checks`` (default: all of :data:`~.checks.CHECKS`, minus ``exclude``) on
-    ``case``: check name -> ``"passed"``, ``"n/a: <why>"`` or the exception it raised.
-
-    When the class itself is malformed (``class`` fails) nothing else can run, and the
-    other checks are not attempted.
-    """
-    names = list(CHECKS) if checks is None else list(checks)
-    unknown = [n for n in [*names, *exclude] if n not in CHECKS]
-    if unknown:
-        raise ValueError(f"unknown checks {unknown}; known: {', '.join(CHECKS)}")
-    names = [n for n in names if n not in set(exclude)]
-    if "class" not in names:
-        names.insert(0, "class")
-    results: dict[str, Any] = {}
-    for name in names:
-        try:
-            CHECKS[name](case)
-        except NotApplicable as why:
-            results[name] = f"n/a: {why}"
-        except Exception as exc:
-            results[name] = exc
-            if name == "class":
-                break
-        else:
-            results[name] = PASSED
-    return results
+    ``case``: check name -> ``"passed"``, ``"n/a: <why>"`` or the exception it raised
+    (see :func:`~.checks.run_registered`)."""
+    return run_registered(CHECKS, case, checks, exclude)
 
 
 def check_plugin(cls: type[Component], params: dict | BaseModel | None = None, *,
