@@ -7,6 +7,7 @@ covered without an entry here.
 from __future__ import annotations
 
 import socket
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +52,8 @@ def setup(kind: str, name: str, tmp: Path) -> dict[str, Any]:
     return {"params": params}
 
 
-#: Sample records per built-in codec name (keyword arguments of
-#: :func:`firenav_framework.testing.check_codec`: ``records``, ``address``, ``options``);
-#: a codec without an entry is checked on foreign and garbled frames only.
-CODEC_SAMPLES: dict[str, dict[str, Any]] = {}
+#: Sample input per codec name: a function giving the keyword arguments of
+#: :func:`firenav_framework.testing.check_codec` (``records``: what ``encode`` takes,
+#: ``address``, ``options``). Every built-in codec needs one (its round trip); a
+#: vendor's codec without one is checked on foreign frames only.
+CODEC_SAMPLES: dict[str, Callable[[], dict[str, Any]]] = {}
