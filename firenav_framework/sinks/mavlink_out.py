@@ -107,6 +107,9 @@ class MavlinkOutSink(Sink):
         if not msg.agent:
             self.ctx.count("poses_without_agent")
             return
+        if not (np.isfinite(msg.position).all() and math.isfinite(msg.heading)):
+            self.ctx.count("non_finite_poses")
+            return
         mav = self._sender(msg.agent)
         x, y, z = (float(v) for v in msg.position)
         n, e, d = y, x, -z

@@ -94,8 +94,6 @@ bus.shutdown()
 
 
 def test_udp_multicast_across_processes(running, tmp_path):
-    pytest.importorskip("msgpack", reason="python-can's udp_multicast needs msgpack "
-                        "(pip install 'python-can[multicast]')")
     port = free_port()
     try:
         probe = can.Bus(interface="udp_multicast", channel="239.74.163.2", port=port)

@@ -10,7 +10,6 @@ import dataclasses
 
 import can
 import numpy as np
-import pytest
 
 from firenav_framework.summary import format_summary
 from firenav_framework.transports.mavlink_link import mavutil
@@ -18,7 +17,6 @@ from firenav_framework.transports.player import DevicePlayer
 
 from .harness import assert_others_intact, offline_tracks, run_live, send_as_is
 
-pytest.importorskip("firenav_plugins.estimators.zupt_ins", reason="zupt_ins not installed")
 
 FAULT_T = 3.0  # s of scenario time
 

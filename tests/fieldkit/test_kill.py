@@ -24,13 +24,11 @@ from .conftest import WAIT_S, free_port, wait_for
 from .harness import AGENTS, MAV_AGENTS, PIPELINE, simulation
 from .test_end_to_end import csv_rows_by_agent
 
-pytest.importorskip("firenav_plugins.estimators.zupt_ins", reason="zupt_ins not installed")
 GROUP = "239.74.163.2"
 
 
 @pytest.fixture
 def multicast_port():
-    pytest.importorskip("msgpack", reason="python-can's udp_multicast needs msgpack")
     port = free_port()
     try:
         can.Bus(interface="udp_multicast", channel=GROUP, port=port).shutdown()

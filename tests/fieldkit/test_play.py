@@ -15,8 +15,6 @@ from firenav_framework.transports.mavlink_link import mavutil
 
 from .conftest import free_port
 
-pytest.importorskip("firenav_plugins.sensors.imu_mavlink", reason="IMU frame encoders not installed")
-
 
 def _blocks():
     out = []
@@ -61,7 +59,6 @@ def test_play_sends_every_sample_as_highres_imu_per_foot(tmp_path):
 
 def test_play_a_scenario_in_the_field_live_layout(tmp_path):
     """ff1, ff2 as CAN nodes 1 and 3 (right feet), ff3, ff4 as MAVLink systems 3 and 4."""
-    pytest.importorskip("msgpack", reason="python-can's udp_multicast needs msgpack")
     import can
 
     from firenav_framework.simulator import load_scenario, simulate

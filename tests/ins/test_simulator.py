@@ -5,15 +5,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
+from firenav_framework.simulator import gait, imu_ideal
 from firenav_plugins.estimators.zupt_ins import eskf
 from firenav_plugins.estimators.zupt_ins.steps import StepTracker
 
 from .conftest import run_engine
-
-gait = pytest.importorskip("firenav_framework.simulator.gait")
-imu_ideal = pytest.importorskip("firenav_framework.simulator.imu_ideal")
 
 
 def _strides() -> "gait.StrideTable":

@@ -115,4 +115,4 @@ def test_a_long_straight_walk_keeps_a_bounded_run():
 
 
 def test_it_is_a_conforming_plugin():
-    check_plugin(WallFollowConstraint, {}, building=building(WALL))
+    check_plugin(WallFollowConstraint)

@@ -180,7 +180,7 @@ class GeneralizedElectricalNetwork:
 
     # -- nodes ------------------------------------------------------------------------------
     def _new_id(self, key: Hashable) -> int:
-        if key in self._ids:
+        if key in self:  # a deleted (marginalised) node's key may be used again
             raise ValueError(f"node {key!r} already exists")
         nid = len(self._keys)
         self._ids[key] = nid

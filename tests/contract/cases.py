@@ -1,0 +1,59 @@
+"""How the conformance test runs each built-in plugin that its defaults cannot run alone.
+
+Every other registered plugin runs with its default parameters on the bundled sample
+(:func:`firenav_framework.testing.sample_world`), so a newly registered plugin is
+covered without an entry here.
+"""
+from __future__ import annotations
+
+import socket
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from firenav_framework.messages import ImuBlock
+from firenav_framework.sources.readers.imu_csv import write_imu_csv
+from firenav_framework.testing import sample_world
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _recording(tmp: Path) -> dict[str, Any]:
+    """An IMU CSV of the sample's foot IMUs, and a damaged copy of it."""
+    blocks = [m for _, m in sample_world().messages if isinstance(m, ImuBlock)][:40]
+    good = write_imu_csv(tmp / "walk.csv", blocks)
+    lines = good.read_text().splitlines(keepends=True)
+    header = sum(1 for ln in lines if not ln[:1].isdigit())
+    body = lines[header:]
+    damaged = [*lines[:header], *body[:10], "0.5,1.0,two,3.0\n", "garbage line\n",
+               *body[10:20], body[20][: len(body[20]) // 2] + "\n", *body[21:]]
+    bad = tmp / "damaged.csv"
+    bad.write_text("".join(damaged))
+    return {"params": {"path": str(good)}, "faulty_params": [{"path": str(bad)}]}
+
+
+def setup(kind: str, name: str, tmp: Path) -> dict[str, Any]:
+    """Keyword arguments of :func:`firenav_framework.testing.plugin_case` for a plugin."""
+    if (kind, name) == ("source", "recording"):
+        return _recording(tmp)
+    params: dict[str, Any] = {
+        ("source", "simulator"): {"duration": 10.0},
+        ("source", "can_bus"): {"interface": "virtual", "channel": f"conformance-{tmp.name}"},
+        ("source", "mavlink"): {"url": f"udpin:127.0.0.1:{free_udp_port()}"},
+        ("source", "udp_lines"): {"bind": f"127.0.0.1:{free_udp_port()}"},
+        ("source", "serial_lines"): {"url": "loop://"},
+        ("sink", "live_view"): {"port": 0},
+        ("sink", "mavlink_out"): {"url": f"udpout:127.0.0.1:{free_udp_port()}"},
+    }.get((kind, name), {})
+    return {"params": params}
+
+
+#: Sample input per codec name: a function giving the keyword arguments of
+#: :func:`firenav_framework.testing.check_codec` (``records``: what ``encode`` takes,
+#: ``address``, ``options``). Every built-in codec needs one (its round trip); a
+#: vendor's codec without one is checked on foreign frames only.
+CODEC_SAMPLES: dict[str, Callable[[], dict[str, Any]]] = {}
