@@ -1,6 +1,13 @@
-"""Parameter tables generated from a plugin's pydantic model (CLI listing and docs)."""
+"""Parameter tables generated from a plugin's pydantic model (CLI listing and docs).
+
+Parameter groups (nested models) are listed member by member under dotted names
+(``detector.window``), the names ``--set estimators.ins.detector.window=0.03`` uses.
+Angles are shown in radians, the unit the plugin reads, and in degrees beside them.
+"""
 from __future__ import annotations
 
+import math
+import types
 import typing
 from dataclasses import dataclass
 
@@ -26,7 +33,7 @@ def type_name(annotation: object) -> str:
     origin = typing.get_origin(annotation)
     if origin is typing.Literal:
         return "one of: " + ", ".join(str(a) for a in typing.get_args(annotation))
-    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)):
+    if origin in (typing.Union, types.UnionType):
         args = [type_name(a) for a in typing.get_args(annotation)]
         return " or ".join("none" if a == "NoneType" else a for a in args)
     if origin is not None:
@@ -37,26 +44,61 @@ def type_name(annotation: object) -> str:
     return getattr(annotation, "__name__", str(annotation))
 
 
-def param_rows(model: type[BaseModel]) -> list[ParamRow]:
+def nested_model(annotation: object) -> type[BaseModel] | None:
+    """The parameter group (a pydantic model) an annotation holds, alone or with None."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        models = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if len(models) == 1:
+            return nested_model(models[0])
+    return None
+
+
+#: Units whose values are also shown in degrees, with the degree unit they turn into.
+_DEGREE_UNITS = {"rad": "deg", "rad/s": "deg/s", "rad/m": "deg/m"}
+
+
+def _show(value: object, unit: str) -> str:
+    if unit in _DEGREE_UNITS and isinstance(value, float) and not isinstance(value, bool):
+        return f"{value:.6g} ({math.degrees(value):.4g} {_DEGREE_UNITS[unit]})"
+    return repr(value)
+
+
+def param_rows(model: type[BaseModel], prefix: str = "",
+               defaults: BaseModel | None = None) -> list[ParamRow]:
+    """One row per parameter of ``model``; a parameter group (nested model) gives a row
+    of its own followed by its members as ``group.member``, whose defaults are those of
+    the group's default value (``defaults``) where it has one."""
     rows = []
     for name, f in model.model_fields.items():
         extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else {}
+        unit = str(extra.get("unit", "") or "")
         bounds = []
         for meta in f.metadata:
             for cls, attr, sym in _BOUNDS:
                 if isinstance(meta, cls):
                     bounds.append(f"{sym} {getattr(meta, attr)}")
-        if f.is_required():
-            default = "(required)"
-        elif f.default is PydanticUndefined or f.default_factory is not None:
-            default = repr(f.get_default(call_default_factory=True))
+        if defaults is not None:
+            value = getattr(defaults, name)
+            default = _show(value, unit)
+        elif f.is_required():
+            value, default = PydanticUndefined, "(required)"
         else:
-            default = repr(f.default)
+            value = f.get_default(call_default_factory=True)
+            default = _show(value, unit)
         meaning = f.description or ""
         if bounds:
             meaning += f" [{', '.join(bounds)}]"
-        rows.append(ParamRow(name, type_name(f.annotation), default,
-                             str(extra.get("unit", "") or ""), meaning.strip()))
+        group = nested_model(f.annotation)
+        if group is not None:
+            rows.append(ParamRow(prefix + name, "group", "" if value is not None else "None",
+                                 "", meaning.strip()))
+            rows += param_rows(group, f"{prefix}{name}.",
+                               value if isinstance(value, BaseModel) else None)
+            continue
+        rows.append(ParamRow(prefix + name, type_name(f.annotation), default, unit,
+                             meaning.strip()))
     return rows
 
 
