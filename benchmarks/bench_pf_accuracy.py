@@ -152,7 +152,8 @@ def run_cell(area: str, overrides: list[str], n: int, stream: str | None = None,
 
 def ins_overrides(area: str) -> list[str]:
     x, y, h = AREAS[area][1]
-    return [f"estimators.ins.initial_position=[{x}, {y}, 0.0]", f"estimators.ins.initial_heading={h}"]
+    return ["estimators.ins.start.mode=pose", f"estimators.ins.start.position=[{x}, {y}, 0.0]",
+            f"estimators.ins.start.heading={h}"]
 
 
 # ----------------------------------------------------------------------------- map error
