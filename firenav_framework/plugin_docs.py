@@ -7,6 +7,7 @@ Angles are shown in radians, the unit the plugin reads, and in degrees beside th
 from __future__ import annotations
 
 import math
+import textwrap
 import types
 import typing
 from dataclasses import dataclass
@@ -31,6 +32,8 @@ class ParamRow:
 def type_name(annotation: object) -> str:
     """Readable name of a type annotation: ``float``, ``one of: drop, keep``, ``list[str]``."""
     origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:            # Angle, AngularRate: a float with a unit parser
+        return type_name(typing.get_args(annotation)[0])
     if origin is typing.Literal:
         return "one of: " + ", ".join(str(a) for a in typing.get_args(annotation))
     if origin in (typing.Union, types.UnionType):
@@ -60,9 +63,15 @@ _DEGREE_UNITS = {"rad": "deg", "rad/s": "deg/s", "rad/m": "deg/m"}
 
 
 def _show(value: object, unit: str) -> str:
-    if unit in _DEGREE_UNITS and isinstance(value, float) and not isinstance(value, bool):
-        return f"{value:.6g} ({math.degrees(value):.4g} {_DEGREE_UNITS[unit]})"
-    return repr(value)
+    """A default as the table shows it: floats to 6 significant digits, angles also in
+    degrees."""
+    if not isinstance(value, float):
+        return repr(value)
+    text = f"{value:.6g}"
+    text += "" if any(c in text for c in ".ein") else ".0"
+    if unit in _DEGREE_UNITS:
+        text += f" ({math.degrees(value):.4g} {_DEGREE_UNITS[unit]})"
+    return text
 
 
 def param_rows(model: type[BaseModel], prefix: str = "",
@@ -102,10 +111,19 @@ def param_rows(model: type[BaseModel], prefix: str = "",
     return rows
 
 
-def format_table(rows: list[list[str]], headers: list[str]) -> str:
-    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h)
+def format_table(rows: list[list[str]], headers: list[str],
+                 wrap: dict[int, int] | None = None) -> str:
+    """Aligned columns; column ``i`` in ``wrap`` is wrapped at ``wrap[i]`` characters onto
+    continuation lines."""
+    wrap = wrap or {}
+    cells = [[textwrap.wrap(c, wrap[i]) or [""] if i in wrap else [c] for i, c in enumerate(r)]
+             for r in rows]
+    widths = [max([len(h)] + [len(line) for r in cells for line in r[i]])
               for i, h in enumerate(headers)]
     out = ["  ".join(h.ljust(w) for h, w in zip(headers, widths)).rstrip(),
            "  ".join("-" * w for w in widths)]
-    out += ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
+    for r in cells:
+        for k in range(max(len(c) for c in r)):
+            line = [c[k] if k < len(c) else "" for c in r]
+            out.append("  ".join(c.ljust(w) for c, w in zip(line, widths)).rstrip())
     return "\n".join(out)

@@ -49,7 +49,7 @@ from .params import PdrEkfParams
 
 __all__ = ["PdrEkfEstimator"]
 
-#: Odometry motion labels -> gait classes (``gait_source: odometry``).
+#: Odometry motion labels -> gait classes (``gait.source: odometry``).
 MOTION_GAITS = {"walk": "FW", "crawl": "FW", "stairs_up": "SC", "stairs_down": "SDF",
                 "stairs_down_backward": "SDB", "still": "still"}
 #: Height uncertainty after a snap to a floor level or landing: 1 sigma [m].
