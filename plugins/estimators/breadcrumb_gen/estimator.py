@@ -58,6 +58,7 @@ from firenav_framework import BreadcrumbDrop, Estimator, Odometry, PoseEstimate,
 from firenav_framework.contract import NoBuilding
 from firenav_framework.geometry import planar_rotation, wrap_angle
 
+from ..odometry_input import accept_odometry
 from .network import GeneralizedElectricalNetwork
 from .params import BreadcrumbGenParams
 
@@ -153,14 +154,7 @@ class BreadcrumbGenEstimator(Estimator):
     def _odometry(self, msg: Odometry) -> None:
         p = self.params
         st = self._agent(msg.agent)     # a firefighter, even if this step is unusable
-        problem = msg.problem()
-        if problem:
-            self.ctx.count("bad_odometry")
-            self.ctx.warn_once(msg.t, "bad_odometry", f"odometry skipped: {problem}",
-                               agent=msg.agent)
-            return
-        if st.states and msg.t <= st.states[-1].t:
-            self.ctx.count("stale_odometry")
+        if not accept_odometry(self.ctx, msg, st.states[-1].t if st.states else None):
             return
         rot = planar_rotation(p.odometry.rotation.get(msg.agent, 0.0))
         delta = rot @ np.asarray(msg.delta, float)

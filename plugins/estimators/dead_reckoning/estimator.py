@@ -40,6 +40,7 @@ from firenav_framework.contract import NoBuilding
 from firenav_framework.capabilities.odometry_correction import OdometryCorrection, OdometryStep
 from firenav_framework.geometry import Rigid2D, planar_rotation, wrap_angle
 
+from ..odometry_input import accept_odometry
 from ..start_pose import entrance_start
 from .alignment import imu_yaw_offset, straight_chord, truth_at
 from .params import DeadReckoningParams
@@ -94,14 +95,7 @@ class DeadReckoningEstimator(Estimator):
         if not isinstance(msg, Odometry):
             return
         st = self.state[msg.agent]
-        problem = msg.problem()
-        if problem:
-            self.ctx.count("bad_odometry")
-            self.ctx.warn_once(msg.t, "bad_odometry", f"odometry step skipped: {problem}",
-                               agent=msg.agent)
-            return
-        if st.last_t is not None and msg.t <= st.last_t:
-            self.ctx.count("stale_odometry")
+        if not accept_odometry(self.ctx, msg, st.last_t):
             return
         delta = np.asarray(msg.delta, float).copy()
         if st.last_t is not None and msg.t_start > st.last_t + 1e-6:

@@ -40,6 +40,7 @@ from firenav_framework.geometry import wrap_angles
 
 from .initialisation import around_pose, near_point, uniform_free_space
 from .map_error import SpreadMonitor
+from ..odometry_input import accept_odometry
 from ..start_pose import entrance_of
 from .motion import propagate
 from .params import ParticleFilterParams
@@ -123,14 +124,7 @@ class ParticleFilterEstimator(Estimator):
 
     def _odometry(self, msg: Odometry) -> None:
         st = self.state[msg.agent]
-        problem = msg.problem()
-        if problem:
-            self.ctx.count("bad_odometry")
-            self.ctx.warn_once(msg.t, "bad_odometry", f"odometry skipped: {problem}",
-                               agent=msg.agent)
-            return
-        if msg.t <= st.last_t:
-            self.ctx.count("stale_odometry")
+        if not accept_odometry(self.ctx, msg, st.last_t):
             return
         delta = np.asarray(msg.delta, dtype=float)
         st.last_t = msg.t

@@ -38,6 +38,7 @@ from firenav_framework.building.tags import TagDatabase, TagSite
 from firenav_framework.geometry import rot2, wrap_angle
 from firenav_framework.messages import Message, Tick
 
+from ..odometry_input import accept_odometry
 from ..start_pose import entrance_of, entrance_start
 from .door_heading import HeadingWindow, door_heading_measurement
 from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter
@@ -168,12 +169,8 @@ class PdrEkfEstimator(Estimator):
             self._cycle(msg.agent, st, msg.t)
 
     def _accept(self, st: _Agent, msg: Odometry) -> bool:
-        """Whether a stride is usable: well-formed, from the agent's tracked device, new."""
-        problem = msg.problem()
-        if problem:
-            self.ctx.count("bad_odometry")
-            self.ctx.warn_once(msg.t, "bad_odometry", f"odometry skipped: {problem}",
-                               agent=msg.agent)
+        """Whether a stride is usable: well-formed, new, from the agent's tracked device."""
+        if not accept_odometry(self.ctx, msg, st.t_odo):
             return False
         if not st.device:
             st.device = msg.device
@@ -182,9 +179,6 @@ class PdrEkfEstimator(Estimator):
             self.ctx.warn_once(msg.t, "second_odometry_device",
                                f"odometry of {msg.device} ignored: {msg.agent} is tracked with "
                                f"{st.device}", agent=msg.agent)
-            return False
-        if msg.t <= st.t_odo:
-            self.ctx.count("stale_odometry")
             return False
         return True
 
