@@ -123,7 +123,7 @@ class Tally:
                     if len(before):
                         self.pre[key].append(np.array([err.horizontal[before[-1]]]))
             comp = result.components.get(est)
-            if getattr(comp, "tags", None) is not None and comp.params.rfid:
+            if getattr(comp, "tags", None) is not None and comp.params.rfid.enabled:
                 right = sum(1 for tag, info in sim.tags.items()
                             if (s := comp.tags.lookup(tag)) is not None
                             and s.id == info["feature"].replace(":", "/"))
