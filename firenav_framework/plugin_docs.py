@@ -58,6 +58,18 @@ def nested_model(annotation: object) -> type[BaseModel] | None:
     return None
 
 
+def fields_at(model: type[BaseModel], loc: tuple) -> list[str]:
+    """Parameter names of the group at ``loc`` (a pydantic error location) in ``model``:
+    what an unknown key there could have been."""
+    for key in loc:
+        field = model.model_fields.get(key) if isinstance(key, str) else None
+        group = nested_model(field.annotation) if field is not None else None
+        if group is None:
+            break
+        model = group
+    return list(model.model_fields)
+
+
 #: Units whose values are also shown in degrees, with the degree unit they turn into.
 _DEGREE_UNITS = {"rad": "deg", "rad/s": "deg/s", "rad/m": "deg/m"}
 

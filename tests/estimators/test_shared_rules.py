@@ -122,3 +122,16 @@ def test_plugins_show_lists_groups_with_dotted_names_units_and_degrees(capsys):
     assert rows["start.mode"].split()[:2] == ["start.mode", "one"]
     assert not any(name.endswith(("_deg", "_dps")) for name in rows
                    if name != "gravity.latitude_deg")
+
+
+def test_a_misspelt_member_of_a_group_is_located_and_matched_within_its_group():
+    from firenav_framework.pipeline import load_pipeline_text
+    from firenav_framework.yaml_locations import ConfigError
+    text = ("name: t\nsources:\n  - {id: sim, plugin: simulator, scenario: demo}\n"
+            "sensors:\n  - {id: imu, plugin: foot_imu, input: sim.imu}\n"
+            "estimators:\n  - id: ins\n    plugin: zupt_ins\n    input: imu.imu\n"
+            "    detector: {windw: 0.03}\n")
+    with pytest.raises(ConfigError) as err:
+        load_pipeline_text(text, file="p.yaml")
+    assert "p.yaml:10:16: estimators[0].detector.windw: unknown parameter; did you mean " \
+           "'window'" in str(err.value)
