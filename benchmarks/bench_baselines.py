@@ -10,7 +10,7 @@ alignment, what is left is sensor drift). Two variants of the INS:
 
 * ``as cal.``: the sensor as calibrated before the run (factory, or the user's lab
   calibration where the paper says so); the turn-on bias left over drives the drift;
-* ``+still``: the INS also takes the gyro bias from the still start (``align_gyro_bias``
+* ``+still``: the INS also takes the gyro bias from the still start (``alignment.gyro_bias``
   over the scenario's first seconds), as foot-INS products do; then only in-run
   instability, the boot's warm-up (thermal drift) and g-sensitivity drive it.
 
@@ -80,27 +80,27 @@ sources:
 sensors:
   - {{id: imu, plugin: foot_imu, input: sim.imu, axes: {axes}}}
 estimators:
-  - {{id: ins, plugin: zupt_ins, input: imu.imu, align_gyro_bias: {still},
-     alignment_duration: {align_s}}}
+  - {{id: ins, plugin: zupt_ins, input: imu.imu,
+     alignment: {{gyro_bias: {still}, duration: {align_s}}}}}
   - id: dr
     plugin: dead_reckoning
     input: ins.odometry
-    alignment: pose
-    start_poses: {poses}
+    start: {{mode: pose, agents: {poses}}}
 """
 
 #: foot_imu ``axes`` (device axis that becomes FLU x, y, z) per device frame.
 AXES = {"FLU": ["x", "y", "z"], "FRD": ["x", "-y", "-z"]}
 
 
-def start_poses(scenario: str) -> dict[str, list[float]]:
+def start_poses(scenario: str) -> dict[str, dict]:
     """True start of every agent (the same for every seed): the IMU's position and the
     body's heading (dead_reckoning maps the INS's walking direction onto it)."""
     r = simulate(scenario, 0, duration_s=1.0)
     out = {}
     for agent, tr in r.truth.items():
         p, heading = tr.foot.position[0], tr.heading[0]
-        out[agent] = [round(float(v), 6) for v in (*p, heading)]
+        out[agent] = {"position": [round(float(v), 6) for v in p],
+                      "heading": round(float(heading), 6)}
     return out
 
 

@@ -8,7 +8,7 @@ it, per seed, the PDR track's horizontal length over the true length (the INS's
 step-length scale error, which the graph does not model) and the GEN's mean error.
 
 Run: ``.venv/bin/python benchmarks/bench_breadcrumb_consistency.py [--seeds 0-9]
-[--set estimators.gen.window=40 ...]``
+[--set estimators.gen.graph.window=40 ...]``
 """
 from __future__ import annotations
 

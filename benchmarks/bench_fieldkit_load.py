@@ -99,7 +99,7 @@ sensors:
   - {{id: imu, plugin: foot_imu, input: mav.raw, axes: [x, -y, -z], block_s: {block},
      agent_map: {agents}}}
 estimators:
-  - {{id: ins, plugin: zupt_ins, input: imu.imu, sample_rate: 200}}
+  - {{id: ins, plugin: zupt_ins, input: imu.imu, imu: {{sample_rate: 200}}}}
 """
 
 

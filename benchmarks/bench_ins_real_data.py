@@ -49,7 +49,7 @@ from firenav_plugins.estimators.zupt_ins.retro import correct_positions  # noqa:
 FLU = np.array([1.0, -1.0, -1.0])     # the datasets' z-down MicroStrain -> FLU
 RATE = 200.0
 N_ALIGN = 5                           # strides used to fit the walks' unknown start pose
-PYSHOE_SETTINGS = {"gravity": 9.8029}  # PyShoe's g; the filter noise defaults are PyShoe's
+PYSHOE_SETTINGS = {"gravity": {"magnitude": 9.8029}}  # PyShoe's g; its filter noise = ours
 
 
 def data_dir() -> Path:
@@ -77,7 +77,7 @@ def run(params: ZuptInsParams, t: np.ndarray, imu: np.ndarray) -> tuple[BlockRes
     eng = InsEngine(params.detector_config(RATE), params.filter_config(RATE))
     res = BlockResult.concat([eng.process(t, imu[:, :3] * FLU, imu[:, 3:] * FLU), eng.finish()])
     pos = res.states[:, eskf.O_POS:eskf.O_POS + 3]
-    if params.retrospective_correction:
+    if params.outputs.retrospective_correction:
         pos = correct_positions(res.states[:, eskf.O_T], pos, res.events)
     return res, pos
 
@@ -106,21 +106,27 @@ def vicon_armse(params: ZuptInsParams, trials: list[ViconTrial]) -> np.ndarray:
 
 
 # -- tuning -----------------------------------------------------------------------------
+#: Values tried for the adaptive detector's parameters (``detector`` group).
 ADAPTIVE_GRID = {
-    "zv_low": [6.0, 6.3, 6.6, 6.9],
-    "zv_kappa": [0.15, 0.2, 0.25, 0.3, 0.35],
-    "zv_prominence": [1.5, 2.0, 2.5],
-    "zv_high": [8.4, 8.7, 9.0, 9.3],
-    "zv_floor_back": [0.5, 0.7, 1.0, 1.5],
+    "low": [6.0, 6.3, 6.6, 6.9],
+    "kappa": [0.15, 0.2, 0.25, 0.3, 0.35],
+    "prominence": [1.5, 2.0, 2.5],
+    "high": [8.4, 8.7, 9.0, 9.3],
+    "floor_back": [0.5, 0.7, 1.0, 1.5],
     "min_stance": [0.005, 0.025, 0.04, 0.06],
 }
+
+
+def with_detector(**detector) -> ZuptInsParams:
+    """The plugin defaults with these detector parameters."""
+    return ZuptInsParams(detector=detector)
 FIXED_GRID = [10 ** e for e in np.arange(5.5, 9.01, 0.25)]
 
 
 def descend(tune_set: list[ViconTrial], start: dict) -> tuple[dict, float]:
     """Coordinate descent over ADAPTIVE_GRID (two passes) minimising the mean ARMSE."""
     current = dict(start)
-    best = vicon_armse(ZuptInsParams(**current), tune_set).mean()
+    best = vicon_armse(with_detector(**current), tune_set).mean()
     for _ in range(2):
         for key, values in ADAPTIVE_GRID.items():
             for value in values:
@@ -128,7 +134,7 @@ def descend(tune_set: list[ViconTrial], start: dict) -> tuple[dict, float]:
                 if trial == current:
                     continue
                 try:
-                    score = vicon_armse(ZuptInsParams(**trial), tune_set).mean()
+                    score = vicon_armse(with_detector(**trial), tune_set).mean()
                 except ValueError:
                     continue
                 if score < best - 1e-5:
@@ -139,19 +145,19 @@ def descend(tune_set: list[ViconTrial], start: dict) -> tuple[dict, float]:
 def tune(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     """Two-fold cross-validation: tune on one half of the VICON trials, score the other."""
     halves = {"even": trials[0::2], "odd": trials[1::2]}
-    defaults = {k: getattr(ZuptInsParams(), k) for k in ADAPTIVE_GRID}
+    defaults = {k: getattr(ZuptInsParams().detector, k) for k in ADAPTIVE_GRID}
     print("Fixed thresholds, best on the even half (the defaults of the fixed detectors):")
     for det in ("shoe", "ared", "amvd"):
-        scores = [(vicon_armse(ZuptInsParams(detector=det, threshold=g), halves["even"]).mean(), g)
+        scores = [(vicon_armse(with_detector(kind=det, threshold=g), halves["even"]).mean(), g)
                   for g in FIXED_GRID]
         best, g = min(scores)
-        held = vicon_armse(ZuptInsParams(detector=det, threshold=g), halves["odd"])
+        held = vicon_armse(with_detector(kind=det, threshold=g), halves["odd"])
         print(f"  {det:5s} 10^{math.log10(g):.2f}: even mean {best:.3f} m, odd (held out) "
               f"mean {held.mean():.3f} m")
     print(f"\nAdaptive detector, coordinate descent from the defaults {defaults}:")
     for fit, test in (("even", "odd"), ("odd", "even")):
         chosen, score = descend(halves[fit], defaults)
-        params = ZuptInsParams(**chosen)
+        params = with_detector(**chosen)
         held = vicon_armse(params, halves[test])
         walk_pct = np.mean([eval_walk(params, w).percent for w in walks])
         changed = {k: v for k, v in chosen.items() if v != defaults[k]}
@@ -168,11 +174,12 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     ours = ZuptInsParams()
     variants = {
         "ours": ours,
-        "no retro": ZuptInsParams(retrospective_correction=False),
-        "height corr": ZuptInsParams(height_correction=True),
+        "no retro": ZuptInsParams(outputs={"retrospective_correction": False}),
+        "height corr": ZuptInsParams(height={"correction": True}),
     }
-    fixed = {g: ZuptInsParams(detector="shoe", threshold=g, retrospective_correction=False,
-                              **PYSHOE_SETTINGS) for g in (1e7, 3e7, 1e8, 5e8)}
+    fixed = {g: ZuptInsParams(detector={"kind": "shoe", "threshold": g},
+                              outputs={"retrospective_correction": False}, **PYSHOE_SETTINGS)
+             for g in (1e7, 3e7, 1e8, 5e8)}
     t0 = time.perf_counter()
     rows = []
     for i, tr in enumerate(trials):

@@ -5,7 +5,7 @@
 Runs in one process, side by side on the same recordings:
 
 * ours — the numba engine (``InsEngine``), adaptive detector (default) and fixed SHOE;
-* ours through the plugin — ImuBlocks of 0.1 s into ``ZuptIns``, messages out;
+* ours through the plugin — ImuBlocks of 0.1 s into ``ZuptInsEstimator``, messages out;
 * the reference — the plain numpy/Python implementation kept in
   ``tests/ins/reference_ins.py`` (same algorithm), on a subset (it is slow), and the
   largest difference between its output and ours on that subset.
@@ -33,7 +33,8 @@ from firenav_framework import ImuBlock  # noqa: E402
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
     load_indoor_walk, load_vicon_trial)
 from firenav_framework.testing import make_component  # noqa: E402
-from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptIns, ZuptInsParams  # noqa: E402
+from firenav_plugins.estimators.zupt_ins import (  # noqa: E402
+    BlockResult, InsEngine, ZuptInsEstimator, ZuptInsParams)
 from firenav_plugins.estimators.zupt_ins import eskf  # noqa: E402
 from tests.ins import reference_ins  # noqa: E402
 
@@ -79,13 +80,13 @@ def main() -> None:
 
     rows = []
     for name, params in (("ours, adaptive detector (default)", ZuptInsParams()),
-                         ("ours, fixed SHOE", ZuptInsParams(detector="shoe"))):
+                         ("ours, fixed SHOE", ZuptInsParams(detector={"kind": "shoe"}))):
         engine_run(params, *recs[0][1:])                       # compile / load the cache
         cpu, wall = timed(lambda: [engine_run(params, *r[1:]) for r in recs])
         rows.append((name, n_total, cpu, wall))
 
     def through_plugin() -> None:
-        comp, _, _ = make_component(ZuptIns, {})
+        comp, _, _ = make_component(ZuptInsEstimator, {})
         for name, t, acc, gyro in recs:
             for i in range(0, len(t), 20):
                 comp.handle("imu", ImuBlock.from_arrays(t[i:i + 20], acc[i:i + 20],

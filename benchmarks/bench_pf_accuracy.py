@@ -12,7 +12,7 @@ floor (data set 2: ``search_area250`` seeds 0-9) — with a known and an unknown
 * ``resample gated`` (the pipeline's default): resampling only while the filter is
   not converged (var_x + var_y > 3 m^2);
 * ``gated quiet still``: the default with no time-update noise over the INS's
-  'still' increments (``noise_while_still: false``);
+  'still' increments (``motion.noise_while_still: false``);
 * ``paper parameters``: the paper's values (500 particles, sigma = 0.1 sqrt(m),
   resampling always, the paper's Hea(eta, 2), injected particles at weight 1/N);
 
@@ -76,12 +76,12 @@ VARIANTS = {
     "weights": [f"{ICP}.resample_percent=0"],
     "resample always": [f"{ICP}.resample_above_m2=0"],
     "resample gated": [],
-    "gated quiet still": ["estimators.pf.noise_while_still=false"],
+    "gated quiet still": ["estimators.pf.motion.noise_while_still=false"],
     "paper parameters": ["estimators.pf.particles=500", f"{ICP}.sigma=0.1", f"{ICP}.resample_above_m2=0",
                          f"{ICP}.right_hand_heading=departure",
-                         "estimators.pf.injected_weight=uniform"],
+                         "estimators.pf.injection.weight=uniform"],
 }
-INITS = {"unknown": [], "known": ["estimators.pf.init=truth"]}
+INITS = {"unknown": [], "known": ["estimators.pf.start.mode=truth"]}
 
 
 @dataclass
@@ -152,7 +152,8 @@ def run_cell(area: str, overrides: list[str], n: int, stream: str | None = None,
 
 def ins_overrides(area: str) -> list[str]:
     x, y, h = AREAS[area][1]
-    return [f"estimators.ins.initial_position=[{x}, {y}, 0.0]", f"estimators.ins.initial_heading={h}"]
+    return ["estimators.ins.start.mode=pose", f"estimators.ins.start.position=[{x}, {y}, 0.0]",
+            f"estimators.ins.start.heading={h}"]
 
 
 # ----------------------------------------------------------------------------- map error
@@ -291,7 +292,7 @@ def main() -> None:
                        f"baseline): [{page.relative_to(out)}]({page.relative_to(out)})", ""]
     say("map error (moved door)")
     from firenav_framework.building import load_building
-    moved = run_cell("flat_125", ["estimators.pf.init=truth", f"building={MOVED_DOOR}"],
+    moved = run_cell("flat_125", ["estimators.pf.start.mode=truth", f"building={MOVED_DOOR}"],
                      args.seeds, progress=say)
     truth_plan = load_building(ROOT / "firenav_framework" / "building" / "data" / "flat_125.geojson")
     me = map_error_figures(moved, known_default.get("flat_125"), truth_plan)

@@ -40,7 +40,7 @@ from firenav_plugins.constraints.search_pattern_icp.comparison import (  # noqa:
     Observations, PatternComparison)
 from firenav_plugins.constraints.search_pattern_icp.principal import principal_rotation  # noqa: E402
 from firenav_plugins.constraints.wall_crossing import WallCrossingConstraint  # noqa: E402
-from firenav_plugins.estimators.particle_filter import ParticleFilter  # noqa: E402
+from firenav_plugins.estimators.particle_filter import ParticleFilterEstimator  # noqa: E402
 from tests.pf.synthetic import drifting_walk  # noqa: E402
 
 
@@ -136,7 +136,7 @@ def walks(building, n_ff: int, minutes: float) -> list:
 
 def run(building, odometry: list, particles: int, reference: bool) -> tuple[float, float, dict]:
     """(simulated seconds, wall seconds, counts) of one filter over all agents' odometry."""
-    pf, rec, stats = make_component(ParticleFilter, {"particles": particles, "init": "unknown"},
+    pf, rec, stats = make_component(ParticleFilterEstimator, {"particles": particles, "start": {"mode": "unknown"}},
                                     building=building)
     walls_cls, icp_cls = ((ReferenceWalls, ReferenceIcp) if reference else
                           (WallCrossingConstraint, SearchPatternIcpConstraint))

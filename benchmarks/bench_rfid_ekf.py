@@ -54,8 +54,8 @@ PAPER = {"hybrid p90 at tags": "< 5 m (90 % of planimetric errors)",
          "mems mean": "19.3 m (sd 9.8 m), last dataset"}
 GOALS = "issue goals: hybrid 90 % under 2 m, floor right >= 99 %, team 2 helped by team 1's tags"
 
-INS = {"calibrated": {"align_gyro_bias": True, "alignment_duration": 5.0}, "raw": {}}
-NO_MAP = {"stair_zone": None, "floor_snap": 0.0, "step_height_from_building": False}
+INS = {"calibrated": {"alignment": {"gyro_bias": True, "duration": 5.0}}, "raw": {}}
+NO_MAP = {"height": {"stair_zone": None, "floor_snap": 0.0, "step_height_from_building": False}}
 ESTIMATORS = ["hybrid", "mems", "tags_only", "orca_ekf", "dr_orca"]
 #: rfid_route walked by ff1 (tagging) and by a reader-only ff2 60 s behind.
 TEAM_SCENARIO = SCENARIO_DIR / "rfid_teams.yaml"
@@ -72,12 +72,13 @@ def pipeline_text(scenario: Path, seed: int, ins: dict) -> str:
         "estimators": [
             {"id": "ins", "plugin": "zupt_ins", "input": "imu.imu", **ins},
             {"id": "hybrid", "plugin": "pdr_ekf", "input": ["ins.odometry", *tags]},
-            {"id": "mems", "plugin": "pdr_ekf", "input": "ins.odometry", "rfid": False, **NO_MAP},
+            {"id": "mems", "plugin": "pdr_ekf", "input": "ins.odometry", "rfid": {"enabled": False},
+             **NO_MAP},
             {"id": "tags_only", "plugin": "pdr_ekf", "input": ["ins.odometry", *tags], **NO_MAP},
             {"id": "dr_orca", "plugin": "dead_reckoning", "input": "ins.odometry",
-             "alignment": "entrance", "constraints": [{"plugin": "orca"}]},
+             "constraints": [{"plugin": "orca"}]},
             {"id": "orca_ekf", "plugin": "pdr_ekf", "input": ["dr_orca.odometry", *tags],
-             "alignment": "none"},
+             "start": {"mode": "unknown"}},
         ],
         "sinks": [],
     }
@@ -122,7 +123,7 @@ class Tally:
                     if len(before):
                         self.pre[key].append(np.array([err.horizontal[before[-1]]]))
             comp = result.components.get(est)
-            if getattr(comp, "tags", None) is not None and comp.params.rfid:
+            if getattr(comp, "tags", None) is not None and comp.params.rfid.enabled:
                 right = sum(1 for tag, info in sim.tags.items()
                             if (s := comp.tags.lookup(tag)) is not None
                             and s.id == info["feature"].replace(":", "/"))

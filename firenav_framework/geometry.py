@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["wrap_angle", "wrap_angles", "rot2", "Rigid2D"]
+__all__ = ["wrap_angle", "wrap_angles", "rot2", "planar_rotation", "Rigid2D"]
 
 
 def wrap_angle(angle: float) -> float:
@@ -31,6 +31,18 @@ def rot2(angle: float) -> np.ndarray:
     """The 2x2 counter-clockwise rotation matrix by ``angle`` [rad]."""
     c, s = math.cos(angle), math.sin(angle)
     return np.array([[c, -s], [s, c]])
+
+
+def planar_rotation(angle: float, n: int = 3) -> np.ndarray:
+    """The n x n matrix that turns the horizontal components (the first two) of a vector
+    counter-clockwise by ``angle`` [rad] and leaves the others (z, heading) alone.
+
+    For a position (x, y, z) ``n=3``; for a pose covariance over (x, y, z, heading)
+    ``R @ cov @ R.T`` with ``n=4`` expresses it in a frame turned by ``angle``.
+    """
+    m = np.eye(n)
+    m[:2, :2] = rot2(angle)
+    return m
 
 
 @dataclass(frozen=True)

@@ -242,6 +242,29 @@ class Odometry(Message):
     def shifted(self, dt: float) -> "Odometry":
         return dataclasses.replace(self, t=self.t + dt, t_start=self.t_start + dt)
 
+    def problem(self) -> str:
+        """Why this increment cannot be dead-reckoned with, or ``""`` when it can.
+
+        The one rule every odometry consumer applies: ``delta`` three finite numbers,
+        ``dheading`` finite, ``t_start <= t`` both finite, the absolute ``position``
+        (3,) and ``heading`` finite, and ``cov`` finite with no negative variance.
+        """
+        delta = np.asarray(self.delta, float)
+        if delta.shape != (3,) or not np.all(np.isfinite(delta)) \
+                or not np.isfinite(self.dheading):
+            return f"increment (delta {np.round(delta, 3).tolist()}, dheading " \
+                   f"{self.dheading}) is not finite or not 3-D"
+        if not (np.isfinite(self.t_start) and np.isfinite(self.t) and self.t_start <= self.t):
+            return f"interval from {self.t_start} to {self.t} s is not a finite forward interval"
+        position = np.asarray(self.position, float)
+        if position.shape != (3,) or not np.all(np.isfinite(position)) \
+                or not np.isfinite(self.heading):
+            return "absolute pose (position, heading) is not finite or not 3-D"
+        cov = np.asarray(self.cov, float)
+        if not np.all(np.isfinite(cov)) or np.any(np.diag(cov) < 0):
+            return "covariance is not finite or has a negative variance"
+        return ""
+
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class PoseEstimate(Message):

@@ -36,6 +36,7 @@ from .bus import FAULT_POLICIES
 from .contract import Component, Params
 from .contract.context import PIPELINE_DIR
 from .messages import Diagnostic, Message
+from .plugin_docs import fields_at
 from .registry import PluginInfo, Registry, default_registry
 from .timeline import TimelineConfig
 from .yaml_locations import ConfigError, LocatedDocument, Problem, format_path, load, loads
@@ -200,11 +201,12 @@ class _Validator:
                 return
         self.problems.append(self.doc.problem(path, message))
 
-    def pydantic_problems(self, base: tuple, exc: ValidationError, known: list[str]) -> None:
+    def pydantic_problems(self, base: tuple, exc: ValidationError, model: type) -> None:
         for err in exc.errors():
             loc = base + tuple(err["loc"])
             message = pydantic_message(err)
             if err.get("type") == "extra_forbidden":
+                known = fields_at(model, tuple(err["loc"])[:-1])   # of the group it is in
                 message += (_did_you_mean(str(err["loc"][-1]), known)
                             or f"; known parameters: {', '.join(known) or 'none'}")
             self.problem(loc, message)
@@ -253,11 +255,10 @@ class _Validator:
         raw = {k: v for k, v in item.items() if k not in COMMON_KEYS and k != "constraints"}
         if "constraints" in item and kind != "estimator":
             self.problem(path + ("constraints",), "only estimators take constraints")
-        known = list(cls.Params.model_fields)
         try:
             params = cls.Params.model_validate(raw)
         except ValidationError as exc:
-            self.pydantic_problems(path, exc, known)
+            self.pydantic_problems(path, exc, cls.Params)
             self.failed.add(cid)
             return None
         try:
@@ -285,7 +286,7 @@ class _Validator:
         try:
             timeline = TimelineConfig.model_validate(data.get("timeline") or {})
         except ValidationError as exc:
-            self.pydantic_problems(("timeline",), exc, list(TimelineConfig.model_fields))
+            self.pydantic_problems(("timeline",), exc, TimelineConfig)
             timeline = TimelineConfig()
         specs: list[ComponentSpec] = []
         for section, kind in SECTIONS.items():

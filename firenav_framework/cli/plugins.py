@@ -1,8 +1,10 @@
-"""``firenav plugins list`` and ``firenav plugins show NAME``."""
+"""``firenav plugins list`` and ``firenav plugins show NAME`` (parameter groups listed
+member by member under dotted names, with type, default, unit and meaning)."""
 from __future__ import annotations
 
 import argparse
 import inspect
+import shutil
 
 from ..plugin_docs import format_table, param_rows
 from ..registry import default_registry
@@ -37,6 +39,14 @@ def list_plugins(args: argparse.Namespace) -> int:
     return 0
 
 
+def _wrap(rows: list[list[str]]) -> dict[int, int]:
+    """Wrap widths of the type and meaning columns so that a row fits the terminal."""
+    type_w = min(28, max(len(r[1]) for r in rows))
+    fixed = max(len(r[0]) for r in rows) + type_w + max(len(r[2]) for r in rows) \
+        + max(len(r[3]) for r in rows) + 8
+    return {1: type_w, 4: max(30, shutil.get_terminal_size((120, 24)).columns - fixed)}
+
+
 def show_plugin(args: argparse.Namespace) -> int:
     reg = default_registry()
     infos = reg.find(args.name)
@@ -61,7 +71,7 @@ def show_plugin(args: argparse.Namespace) -> int:
             print(f"capability: {cls.capability.__name__} ({cls.capability.__module__})")
         rows = [[r.name, r.type, r.default, r.unit, r.meaning] for r in param_rows(cls.Params)]
         print("\nparameters:")
-        print(format_table(rows, ["name", "type", "default", "unit", "meaning"])
-              if rows else "  (none)")
+        print(format_table(rows, ["name", "type", "default", "unit", "meaning"],
+                           _wrap(rows)) if rows else "  (none)")
         print()
     return 0

@@ -9,7 +9,7 @@ import pytest
 
 from firenav_framework import BreadcrumbDrop, Odometry, Range
 from firenav_framework.testing import check_plugin, make_component, run_component
-from firenav_plugins.estimators.breadcrumb_gen import BreadcrumbGen
+from firenav_plugins.estimators.breadcrumb_gen import BreadcrumbGenEstimator
 
 BASE = np.array([0.0, 0.0, 1.0])
 CRUMBS = {"bc1": (20.0, 0.0), "bc2": (40.0, 5.0), "bc3": (20.0, 10.0), "bc4": (0.0, 5.0)}
@@ -62,8 +62,9 @@ def walk(laps: int = 3, drift_deg_per_lap: float = 10.0, seed: int = 0, kick: bo
     return msgs, truth[1:], t[1:]
 
 
-PARAMS = {"base_position": BASE.tolist(), "odometry_noise_per_m": 0.05}
-PAPER = {**PARAMS, "heading_states": False, "odometry_noise_per_m": 0.3}  # position-only GEN
+PARAMS = {"base": {"position": BASE.tolist()}, "odometry": {"noise_per_m": 0.05}}
+PAPER = {**PARAMS, "heading": {"enabled": False},                 # position-only GEN
+         "odometry": {"noise_per_m": 0.3}}
 
 
 def errors(rec, truth):
@@ -79,7 +80,7 @@ def pdr_errors(msgs, truth):
 
 def test_encounters_bound_the_drift_of_pdr():
     msgs, truth, _ = walk()
-    rec = run_component(BreadcrumbGen, PARAMS, msgs)
+    rec = run_component(BreadcrumbGenEstimator, PARAMS, msgs)
     gen, pdr = errors(rec, truth), pdr_errors(msgs, truth)
     assert len(gen) == len(truth)
     assert pdr[-1] > 8.0                          # the drifting PDR ends far off
@@ -99,8 +100,8 @@ def test_marginalisation_window_is_exact_for_linear_edges():
     states gives the same poses as keeping every state (the paper's position-only GEN,
     whose edges here are all linear)."""
     msgs, truth, _ = walk(laps=2)
-    short = run_component(BreadcrumbGen, {**PAPER, "window": 3}, msgs)
-    full = run_component(BreadcrumbGen, {**PAPER, "window": 100000}, msgs)
+    short = run_component(BreadcrumbGenEstimator, {**PAPER, "graph": {"window": 3}}, msgs)
+    full = run_component(BreadcrumbGenEstimator, {**PAPER, "graph": {"window": 100000}}, msgs)
     a = np.array([p.position for p in short.on("pose")])
     b = np.array([p.position for p in full.on("pose")])
     np.testing.assert_allclose(a, b, atol=1e-8)
@@ -115,8 +116,8 @@ def test_heading_states_learn_the_gyro_drift():
     and the breadcrumbs estimate the drift rate, and the track stays far closer."""
     drift = 10.0                                       # [deg per lap of 100 s]
     msgs, truth, t = walk(laps=4, drift_deg_per_lap=drift)
-    ours = run_component(BreadcrumbGen, PARAMS, msgs)
-    paper = run_component(BreadcrumbGen, PAPER, msgs)
+    ours = run_component(BreadcrumbGenEstimator, PARAMS, msgs)
+    paper = run_component(BreadcrumbGenEstimator, PAPER, msgs)
     e_ours, e_paper = errors(ours, truth), errors(paper, truth)
     later = t > 110.0                                  # after the first loop closure
     assert e_ours[later].max() < 0.5 * e_paper[later].max()
@@ -135,7 +136,7 @@ def test_heading_states_learn_the_gyro_drift():
 
 def states_in_graph(params: dict, msgs) -> tuple[np.ndarray, np.ndarray, object]:
     """(times, firefighter states in the graph after each step, component)."""
-    comp, _, _ = make_component(BreadcrumbGen, params)
+    comp, _, _ = make_component(BreadcrumbGenEstimator, params)
     comp.start()
     t, n = [], []
     for s, m in msgs:
@@ -153,14 +154,14 @@ def test_graph_keeps_the_window_and_the_states_with_unsettled_headings():
     first lap, before the loop closes at the base at t = 110 s) is not marginalised until
     a closure settles it, and never more than ``window_max`` are kept."""
     msgs, _, _ = walk(laps=2)
-    t, n, _ = states_in_graph({**PAPER, "window": 5}, msgs)
+    t, n, _ = states_in_graph({**PAPER, "graph": {"window": 5}}, msgs)
     assert np.all(n[4:] == 5)
-    t, n, comp = states_in_graph({**PARAMS, "window": 5}, msgs)
+    t, n, comp = states_in_graph({**PARAMS, "graph": {"window": 5}}, msgs)
     assert n[t < 110].max() > 80                       # the whole first lap is kept ...
     assert np.all(n[(t > 110) & (t < 116)] == 5)       # ... until the closure settles it
     assert n[t > 110].max() < 0.5 * n[t < 110].max()   # later breadcrumbs settle sooner
     assert comp.ctx.stats.counts[comp.ctx.id]["states_kept_unsettled"] > 0
-    _, n, _ = states_in_graph({**PARAMS, "window": 5, "window_max": 30}, msgs)
+    _, n, _ = states_in_graph({**PARAMS, "graph": {"window": 5, "window_max": 30}}, msgs)
     assert n.max() == 30
 
 
@@ -171,7 +172,7 @@ def test_impossible_speed_is_dropped():
     s, bad = msgs[k]
     msgs[k] = (s, Odometry(t=bad.t, agent="ff1", t_start=bad.t_start, delta=bad.delta + [30, 0, 0],
                            dheading=0.0, cov=bad.cov, position=bad.position, heading=0.0))
-    comp, rec, stats = make_component(BreadcrumbGen, PARAMS)
+    comp, rec, stats = make_component(BreadcrumbGenEstimator, PARAMS)
     comp.start()
     for s, m in msgs:
         comp.handle(s, m)
@@ -184,7 +185,7 @@ def test_impossible_speed_is_dropped():
 def test_kicked_breadcrumb_becomes_a_new_node():
     """§V-C: after a kick (1.5 m) the breadcrumb is re-estimated at its new place."""
     msgs, truth, _ = walk(laps=4, drift_deg_per_lap=2.0, kick=True)
-    rec = run_component(BreadcrumbGen, PARAMS, msgs)
+    rec = run_component(BreadcrumbGenEstimator, PARAMS, msgs)
     last = [p for p in rec.on("breadcrumbs") if p.agent == "bc1"][-1]
     assert last.device == "bc1#2"
     assert np.hypot(*(last.position[:2] - (21.5, 0.0))) < 1.2
@@ -194,7 +195,7 @@ def test_kicked_breadcrumb_becomes_a_new_node():
 def test_bad_input_is_counted_not_raised():
     msgs, _, _ = walk(laps=1)
     odo = msgs[0][1]
-    comp, rec, stats = make_component(BreadcrumbGen, PARAMS)
+    comp, rec, stats = make_component(BreadcrumbGenEstimator, PARAMS)
     comp.start()
     comp.handle("odo", Odometry(t=1.0, agent="ff1", t_start=0.5, delta=np.array([np.nan, 0, 0]),
                                 dheading=0.0, cov=odo.cov, position=odo.position, heading=0.0))
@@ -207,19 +208,19 @@ def test_bad_input_is_counted_not_raised():
     comp.handle(*msgs[20])
     comp.finish()
     c = stats.counts["under_test"]
-    assert c["odometry_skipped"] == 1 and c["radio_unmatched"] == 1 and c["range_invalid"] == 1
+    assert c["bad_odometry"] == 1 and c["radio_unmatched"] == 1 and c["range_invalid"] == 1
     assert len(rec.on("pose")) == sum(s == "odo" for s, _ in msgs[:21])
 
 
 def test_needs_a_base_position():
-    comp, _, _ = make_component(BreadcrumbGen, {})
-    with pytest.raises(ValueError, match="base_position"):
+    comp, _, _ = make_component(BreadcrumbGenEstimator, {})
+    with pytest.raises(ValueError, match="base.position"):
         comp.start()
 
 
 def test_conforms_to_the_plugin_contract():
     msgs, _, _ = walk(laps=1)
-    check_plugin(BreadcrumbGen, PARAMS, sample_input=[m for m in msgs[:30]])
+    check_plugin(BreadcrumbGenEstimator, PARAMS, sample_input=[m for m in msgs[:30]])
 
 
 def test_events_of_a_firefighter_without_odometry_are_counted_and_reported():
@@ -227,7 +228,7 @@ def test_events_of_a_firefighter_without_odometry_are_counted_and_reported():
     counted and reported at the end, not silently dropped."""
     msgs, _, _ = walk(laps=1)
     odo = msgs[0][1]
-    comp, rec, stats = make_component(BreadcrumbGen, PARAMS)
+    comp, rec, stats = make_component(BreadcrumbGenEstimator, PARAMS)
     comp.start()
     comp.handle("odo", Odometry(t=1.0, agent="ff2", t_start=0.5, delta=np.array([np.nan, 0, 0]),
                                 dheading=0.0, cov=odo.cov, position=odo.position, heading=0.0))

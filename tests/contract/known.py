@@ -26,18 +26,14 @@ KNOWN: dict[tuple[str, str], dict[str, str]] = {
         "bad_input": "a GroundTruth with an empty position (the message type accepts any "
                      "shape) fails the plot at finish",
     },
-    ("estimator", "particle_filter"): {
-        "parameter_docs": "degrees: start_heading_sigma_deg, entrance_heading_sigma_deg, "
-                          "yaw_rate_sigma_dps, injected_kernel_deg",
-    },
     ("estimator", "zupt_ins"): {
-        "parameter_docs": "latitude in degrees; odometry_length_sigma has no unit",
+        "parameter_docs": "gravity.latitude_deg is in degrees; odometry.length_sigma has no unit",
     },
     ("estimator", "dead_reckoning"): {
-        "parameter_docs": "step_length_sigma has no unit (a fraction of the step: unit='1')",
+        "parameter_docs": "step_noise.length_sigma has no unit (a fraction of the step: unit='1')",
     },
     ("estimator", "pdr_ekf"): {
-        "parameter_docs": "heading_turn_noise has no unit (rad per rad turned)",
+        "parameter_docs": "process.heading_turn_noise has no unit (rad per rad turned)",
     },
 }
 

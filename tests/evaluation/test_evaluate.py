@@ -15,13 +15,11 @@ sources:
 sensors:
   - {{id: imu, plugin: foot_imu, input: sim.imu}}
 estimators:
-  - {{id: ins, plugin: zupt_ins, input: imu.imu, align_gyro_bias: {still},
-     alignment_duration: 8.0}}
+  - {{id: ins, plugin: zupt_ins, input: imu.imu, alignment: {{gyro_bias: {still}, duration: 8.0}}}}
   - id: dr
     plugin: dead_reckoning
     input: ins.odometry
-    alignment: pose
-    start_poses: {{ff1: [5.12, 8.3, 0.06, 0.0]}}
+    start: {{mode: pose, agents: {{ff1: {{position: [5.12, 8.3, 0.06], heading: 0.0}}}}}}
 """
 
 KEYS = ["rmse_m", "mean_m", "median_m", "p90_m", "p95_m", "max_m", "mean_pct_distance",

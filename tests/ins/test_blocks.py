@@ -5,7 +5,7 @@ import numpy as np
 
 from firenav_framework import ImuBlock
 from firenav_framework.testing import run_component
-from firenav_plugins.estimators.zupt_ins import ZuptIns
+from firenav_plugins.estimators.zupt_ins import ZuptInsEstimator
 
 from .conftest import FLU, run_engine
 
@@ -41,9 +41,9 @@ def _digest(rec, port):
 def test_plugin_blocks_equal_whole(vicon_walk):
     s = slice(0, 3000)
     t, acc, gyro = vicon_walk.ts[s], vicon_walk.accel[s] * FLU, vicon_walk.gyro[s] * FLU
-    params = {"state_rate": 50.0}
-    whole = run_component(ZuptIns, params, _blocks(t, acc, gyro, [20]))
-    split = run_component(ZuptIns, params,
+    params = {"outputs": {"state_rate": 50.0}}
+    whole = run_component(ZuptInsEstimator, params, _blocks(t, acc, gyro, [20]))
+    split = run_component(ZuptInsEstimator, params,
                           _blocks(t, acc, gyro, _cuts(100, np.random.default_rng(3))))
     assert len(whole.on("odometry")) > 5 and len(whole.on("state")) > 100
     for port in ("odometry", "pose", "state"):
@@ -57,7 +57,7 @@ def test_plugin_state_is_the_retro_corrected_track(vicon_walk):
 
     s = slice(0, 3000)
     t, acc, gyro = vicon_walk.ts[s], vicon_walk.accel[s] * FLU, vicon_walk.gyro[s] * FLU
-    rec = run_component(ZuptIns, {"state_rate": 200.0}, _blocks(t, acc, gyro, _cuts(
+    rec = run_component(ZuptInsEstimator, {"outputs": {"state_rate": 200.0}}, _blocks(t, acc, gyro, _cuts(
         60, np.random.default_rng(9))))
     whole = run_engine(t, acc, gyro)
     pos = correct_positions(whole.states[:, eskf.O_T], whole.states[:, 1:4], whole.events)

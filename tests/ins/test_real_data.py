@@ -24,7 +24,7 @@ def test_stored_labels_reproduce_the_published_errors(shared_data):
     ratios = []
     for name in STORED_LABEL_TRIALS:
         tr = load_vicon_trial(shared_data / "pyshoe-vicon" / f"{name}.mat")
-        fc = ZuptInsParams(gravity=9.8029).filter_config(200.0)
+        fc = ZuptInsParams(gravity={"magnitude": 9.8029}).filter_config(200.0)
         x, P, ist, fs = eskf.new_state(fc)
         out = np.empty((len(tr.ts), eskf.N_OUT))
         events = np.empty((len(tr.ts), eskf.N_EVENT))
@@ -45,7 +45,7 @@ def test_vicon_trials_with_one_configuration(trial, bound, request):
     # one fixed SHOE threshold does not hold up on the running trial
     if trial == "vicon_run":
         fixed = run_engine(tr.ts, tr.accel * FLU, tr.gyro * FLU,
-                           ZuptInsParams(detector="shoe", threshold=1e7))
+                           ZuptInsParams(detector={"kind": "shoe", "threshold": 1e7}))
         assert pyshoe_armse(fixed.states[:, 1:3], tr.gt) > 2 * armse
 
 

@@ -27,9 +27,9 @@ def _compare(t, acc, gyro, params: ZuptInsParams) -> None:
 
 @pytest.mark.parametrize("options", [
     {},
-    {"detector": "shoe"},
-    {"bias_states": True, "init_accel_bias_sigma": 0.01, "zaru": True, "zaru_after": 0.2,
-     "height_correction": True},
+    {"detector": {"kind": "shoe"}},
+    {"filter": {"bias_states": True, "accel_bias_sigma": 0.01},
+     "zaru": {"enabled": True, "after": 0.2}, "height": {"correction": True}},
 ])
 def test_real_trial_matches_reference(vicon_run, options):
     s = slice(0, N_REAL)
@@ -42,4 +42,4 @@ def test_synthetic_walk_matches_reference(detector, threshold):
     rec = add_noise(walk([Stride((0.7, 0.05, 0.0), turn=0.4), Stride((0.6, 0.0, 0.17)),
                           Stride((0.6, -0.1, 0.0), turn=-0.4)]), np.random.default_rng(1))
     # smooth synthetic swings barely change within a 25 ms window: AMVD needs a low threshold
-    _compare(rec.t, rec.accel, rec.gyro, ZuptInsParams(detector=detector, threshold=threshold))
+    _compare(rec.t, rec.accel, rec.gyro, ZuptInsParams(detector={"kind": detector, "threshold": threshold}))

@@ -10,7 +10,7 @@ import pytest
 from firenav_framework import GroundTruth, Odometry
 from firenav_framework.building import Building, Entrance, Floor, bundled_plan, load_building
 from firenav_framework.testing import check_plugin, make_component
-from firenav_plugins.estimators.dead_reckoning import DeadReckoning
+from firenav_plugins.estimators.dead_reckoning import DeadReckoningEstimator
 from tests.contract.known import known
 
 YAW = -2.3     # arbitrary INS-frame yaw
@@ -34,11 +34,12 @@ def ins_steps(path: np.ndarray, yaw: float = YAW, t0: float = 0.0, cov=None, sca
     return out
 
 
+POSE = {"start": {"mode": "pose", "position": (5.0, 8.4, 0.0), "heading": 0.0}}
 L_PATH = np.array([[5.0, 8.4], [6.0, 8.4], [7.0, 8.4], [8.0, 8.4], [8.0, 9.4], [8.0, 10.4]])
 
 
 def run(params, msgs, building=None):
-    dr, rec, stats = make_component(DeadReckoning, params, building=building)
+    dr, rec, stats = make_component(DeadReckoningEstimator, params, building=building)
     dr.start()
     for m in msgs:
         dr.handle("odo", m)
@@ -47,7 +48,7 @@ def run(params, msgs, building=None):
 
 
 def test_known_entry_pose_maps_the_ins_frame_onto_the_building():
-    rec, _ = run(dict(alignment="pose", start_position=(5.0, 8.4, 0.0), start_heading=0.0),
+    rec, _ = run(POSE,
                  ins_steps(L_PATH))
     poses = rec.on("pose")
     np.testing.assert_allclose([p.position[:2] for p in poses], L_PATH[1:], atol=1e-12)
@@ -70,15 +71,17 @@ def test_entrance_alignment_uses_the_buildings_entrance():
 def test_first_straight_segment_along_a_known_wall_fixes_the_heading():
     # the entry heading is unknown (None); the first 3 m run along a wall heading 0 rad
     path = np.array([[5.0, 8.4], [6.5, 8.4], [8.0, 8.4], [9.5, 8.4], [9.5, 9.9]])
-    rec, _ = run(dict(alignment="first_segment", start_position=(5.0, 8.4, 0.0),
-                      align_heading=0.0, align_distance=3.0), ins_steps(path))
+    rec, _ = run({"start": {"mode": "pose", "position": (5.0, 8.4, 0.0),
+                            "first_segment": {"wall_heading": 0.0, "distance": 3.0}}},
+                 ins_steps(path))
     np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-9)
 
 
 def test_first_segment_with_a_wobble_uses_the_chord():
     path = np.array([[0.0, 0.0], [1.0, 0.1], [2.0, -0.1], [3.0, 0.0], [3.0, 1.0]])
-    rec, _ = run(dict(alignment="first_segment", start_position=(0.0, 0.0, 0.0),
-                      align_heading=0.0, align_distance=3.0), ins_steps(path))
+    rec, _ = run({"start": {"mode": "pose", "position": (0.0, 0.0, 0.0),
+                            "first_segment": {"wall_heading": "0 deg", "distance": 3.0}}},
+                 ins_steps(path))
     np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-9)
 
 
@@ -87,18 +90,18 @@ def test_covariance_grows_with_distance_as_heading_error_propagates():
     straight walk of length D is sigma_p^2 + D^2 sigma_h^2 (small-angle)."""
     path = np.column_stack([np.arange(11.0), np.zeros(11)])
     sp, sh = 0.3, 0.05
-    rec, _ = run(dict(alignment="pose", start_position=(0.0, 0.0, 0.0), start_heading=0.0,
-                      start_sigma=sp, start_sigma_heading=sh, step_heading_sigma=0.0,
-                      step_length_sigma=0.0), ins_steps(path, cov=np.zeros((4, 4))))
+    start = {"mode": "pose", "position": (0.0, 0.0, 0.0), "heading": 0.0,
+             "sigma_position": sp, "sigma_heading": sh}
+    rec, _ = run({"start": start, "step_noise": {"heading_sigma": 0.0, "length_sigma": 0.0}},
+                 ins_steps(path, cov=np.zeros((4, 4))))
     for k, p in enumerate(rec.on("pose"), 1):
         assert p.cov[1, 1] == pytest.approx(sp ** 2 + (k * sh) ** 2)
         assert p.cov[0, 0] == pytest.approx(sp ** 2)
         assert p.cov[3, 3] == pytest.approx(sh ** 2)
     # per-step noise adds on top and accumulates; the floors stand in for what the INS
     # covariance leaves out (here: nothing reported at all)
-    rec2, _ = run(dict(alignment="pose", start_position=(0.0, 0.0, 0.0), start_heading=0.0,
-                       start_sigma=sp, start_sigma_heading=sh, step_heading_sigma=0.01,
-                       step_length_sigma=0.02), ins_steps(path, cov=np.zeros((4, 4))))
+    rec2, _ = run({"start": start, "step_noise": {"heading_sigma": 0.01, "length_sigma": 0.02}},
+                  ins_steps(path, cov=np.zeros((4, 4))))
     poses = rec2.on("pose")
     for k, p in enumerate(poses, 1):
         assert p.cov[3, 3] == pytest.approx(sh ** 2 + k * 0.01 ** 2)
@@ -108,7 +111,7 @@ def test_covariance_grows_with_distance_as_heading_error_propagates():
 
 def test_gap_in_odometry_is_bridged_from_absolute_positions():
     msgs = ins_steps(L_PATH)
-    rec, counts = run(dict(alignment="pose", start_position=(5.0, 8.4, 0.0), start_heading=0.0),
+    rec, counts = run(POSE,
                       msgs[:2] + msgs[3:])
     np.testing.assert_allclose(rec.on("pose")[-1].position[:2], L_PATH[-1], atol=1e-12)
     assert counts["gaps_bridged"] == 1
@@ -119,7 +122,7 @@ def test_bad_and_stale_odometry_is_counted_and_skipped():
     bad = Odometry(t=2.5, agent="ff1", t_start=2.0, delta=np.array([np.nan, 0.0, 0.0]),
                    dheading=0.0, cov=np.eye(4), position=np.zeros(3), heading=0.0)
     stale = msgs[1]
-    rec, counts = run(dict(alignment="pose", start_position=(5.0, 8.4, 0.0), start_heading=0.0),
+    rec, counts = run(POSE,
                       msgs[:2] + [bad, stale] + msgs[2:])
     np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], L_PATH[1:], atol=1e-12)
     assert counts["bad_odometry"] == 1 and counts["stale_odometry"] == 1
@@ -127,14 +130,17 @@ def test_bad_and_stale_odometry_is_counted_and_skipped():
 
 
 def test_missing_alignment_inputs_fail_clearly():
-    dr, _, _ = make_component(DeadReckoning, dict(alignment="pose"))
-    with pytest.raises(ValueError, match="start_position and start_heading"):
-        dr.start()
-    dr, _, _ = make_component(DeadReckoning, {})
+    with pytest.raises(ValueError, match="mode 'pose' needs a position"):
+        make_component(DeadReckoningEstimator, {"start": {"mode": "pose"}})
+    with pytest.raises(ValueError, match="mode 'pose' needs a heading"):
+        make_component(DeadReckoningEstimator, {"start": {"mode": "pose", "position": (0, 0, 0)}})
+    with pytest.raises(ValueError, match="read only with mode 'pose'"):
+        make_component(DeadReckoningEstimator, {"start": {"position": (0, 0, 0), "heading": 0}})
+    dr, _, _ = make_component(DeadReckoningEstimator, {})
     with pytest.raises(ValueError, match="needs a building"):
         dr.start()
     b = Building("no_entrance", [Floor(index=0, z=0.0, height=3.0, walls=np.zeros((0, 2, 2)))])
-    dr, _, _ = make_component(DeadReckoning, {"imu_yaw_offset": 0.0}, building=b)
+    dr, _, _ = make_component(DeadReckoningEstimator, {"imu_yaw_offset": {"angle": 0.0}}, building=b)
     dr.start()
     with pytest.raises(ValueError, match="no entrance"):
         dr.handle("odo", ins_steps(L_PATH)[0])
@@ -143,7 +149,7 @@ def test_missing_alignment_inputs_fail_clearly():
 def test_conforms_to_the_plugin_contract():
     b = Building("b", [Floor(index=0, z=0.0, height=3.0, walls=np.zeros((0, 2, 2)))],
                  entrances=[Entrance("e", 0, np.array([1.0, 2.0]), 0.5)])
-    check_plugin(DeadReckoning, {}, sample_input=[("odo", m) for m in ins_steps(L_PATH)],
+    check_plugin(DeadReckoningEstimator, {}, sample_input=[("odo", m) for m in ins_steps(L_PATH)],
                  building=b, exclude=known("estimator", "dead_reckoning"))
 
 
@@ -154,11 +160,10 @@ def test_toe_out_between_imu_yaw_and_walking_direction_is_estimated():
     msgs = ins_steps(path)
     toe = math.radians(7.0)
     msgs = [replace(m, heading=m.heading + toe) for m in msgs]
-    params = dict(alignment="pose", start_position=(5.0, 8.4, 0.0), start_heading=0.0)
-    rec, _ = run(params, msgs)
+    rec, _ = run(POSE, msgs)
     np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-9)
     assert rec.on("pose")[-1].heading == pytest.approx(0.0, abs=1e-9)   # walking direction
-    rec, _ = run({**params, "imu_yaw_offset": 0.0}, msgs)                # told: no offset
+    rec, _ = run({**POSE, "imu_yaw_offset": {"angle": 0.0}}, msgs)      # told: no offset
     end = rec.on("pose")[-1].position
     assert math.atan2(end[1] - 8.4, end[0] - 5.0) == pytest.approx(-toe)
 
@@ -174,14 +179,14 @@ def test_truth_alignment_takes_the_true_pose_when_the_ins_starts():
              for t in np.arange(0.0, 25.0, 0.25)]
     stream = sorted([("truth", g) for g in truth] + [("odo", m) for m in msgs],
                     key=lambda sm: sm[1].t)
-    dr, rec, stats = make_component(DeadReckoning, {"alignment": "truth"})
+    dr, rec, stats = make_component(DeadReckoningEstimator, {"start": {"mode": "truth"}})
     dr.start()
     for name, m in stream:
         dr.handle(name, m)
     dr.finish()
     np.testing.assert_allclose([p.position[:2] for p in rec.on("pose")], path[1:], atol=1e-9)
     # without any ground truth the steps cannot be placed: an error diagnostic, counted
-    dr, rec, stats = make_component(DeadReckoning, {"alignment": "truth"})
+    dr, rec, stats = make_component(DeadReckoningEstimator, {"start": {"mode": "truth"}})
     dr.start()
     for m in msgs:
         dr.handle("odo", m)

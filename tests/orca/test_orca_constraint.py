@@ -14,7 +14,8 @@ import pytest
 from firenav_framework.building import Anchor, Door
 from firenav_framework.testing import make_component
 from firenav_plugins.constraints.orca import OrcaConstraint
-from tests.orca.walker import YAW, DeadReckoning, Walker, building
+from firenav_plugins.estimators.dead_reckoning import DeadReckoningEstimator
+from tests.orca.walker import YAW, Walker, building
 
 WALL = [[[-50.0, 0.0], [50.0, 0.0]]]
 
@@ -119,10 +120,10 @@ def test_team_members_avoid_each_other():
     """Two firefighters walk head-on along the same line; as ORCA agents they pass."""
     b = building([[[-50.0, -20.0], [50.0, -20.0]]])
     for avoid, expect_clear in ((False, False), (True, True)):
-        params = dict(alignment="pose", start_poses={"ff1": (-5.0, 0.0, 0.0, 0.0),
-                                                     "ff2": (5.0, 0.0, 0.0, math.pi)},
-                      imu_yaw_offset=0.0)
-        dr, rec, stats = make_component(DeadReckoning, params, building=b)
+        agents = {"ff1": {"position": (-5.0, 0.0, 0.0), "heading": 0.0},
+                  "ff2": {"position": (5.0, 0.0, 0.0), "heading": math.pi}}
+        params = {"start": {"mode": "pose", "agents": agents}, "imu_yaw_offset": {"angle": 0.0}}
+        dr, rec, stats = make_component(DeadReckoningEstimator, params, building=b)
         orca, _, _ = make_component(OrcaConstraint, {"avoid_team": avoid}, building=b)
         orca.start()
         dr.constraints.append(orca)

@@ -15,9 +15,7 @@ from firenav_framework.building import Building, Floor
 from firenav_framework.registry import default_registry
 from firenav_framework.testing import make_component
 from firenav_plugins.constraints.orca import OrcaConstraint
-
-#: The estimator the constraints attach to, found by its pipeline name.
-DeadReckoning = default_registry().get("estimator", "dead_reckoning").cls
+from firenav_plugins.estimators.dead_reckoning import DeadReckoningEstimator
 
 YAW = 1.1          # the INS frame's arbitrary yaw [rad]
 COV = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
@@ -38,9 +36,9 @@ class Walker:
 
     def __init__(self, b: Building, start, heading, orca: dict | None = None,
                  agent: str = "ff1", chain=None, extra=()):
-        params = dict(alignment="pose", start_position=(*start, 0.0), start_heading=heading,
-                      imu_yaw_offset=0.0)
-        self.dr, self.rec, self.stats = chain or make_component(DeadReckoning, params,
+        params = {"start": {"mode": "pose", "position": (*start, 0.0), "heading": heading},
+                  "imu_yaw_offset": {"angle": 0.0}}
+        self.dr, self.rec, self.stats = chain or make_component(DeadReckoningEstimator, params,
                                                                 building=b)
         self.constraints = []
         if chain is None:

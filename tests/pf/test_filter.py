@@ -14,7 +14,7 @@ from firenav_framework.capabilities import ParticleConstraint, Particles
 from firenav_framework.testing import check_plugin, make_component
 from firenav_plugins.constraints.search_pattern_icp import SearchPatternIcpConstraint
 from firenav_plugins.constraints.wall_crossing import WallCrossingConstraint
-from firenav_plugins.estimators.particle_filter import ParticleFilter
+from firenav_plugins.estimators.particle_filter import ParticleFilterEstimator
 from firenav_plugins.estimators.particle_filter.map_error import SpreadMonitor
 from tests.contract.known import known
 from tests.pf.synthetic import drifting_walk
@@ -34,8 +34,13 @@ def search_walk(flat):
                          scale=1.04)
 
 
+def pose_start(x: float, y: float, heading: float = 0.0) -> dict:
+    """A known start pose (walking heading [rad])."""
+    return {"mode": "pose", "position": (x, y, 0.0), "heading": heading}
+
+
 def run(building, walk, params, constraints=()):
-    pf, rec, stats = make_component(ParticleFilter, params, building=building)
+    pf, rec, stats = make_component(ParticleFilterEstimator, params, building=building)
     for k, (cls, p) in enumerate(constraints):
         c, _, _ = make_component(cls, p, building=building, cid=f"c{k}")
         c.start()
@@ -66,7 +71,7 @@ def dead_reckoning_errors(walk):
 
 
 def test_walls_beat_odometry_alone_from_a_known_start(flat, search_walk):
-    rec, counts = run(flat, search_walk, {"particles": 300, "init": "truth", "seed": 1},
+    rec, counts = run(flat, search_walk, {"particles": 300, "start": {"mode": "truth"}, "seed": 1},
                       [(WallCrossingConstraint, {})])
     _, err = errors(rec.on("pose"), search_walk)
     dr = dead_reckoning_errors(search_walk)
@@ -79,7 +84,7 @@ def test_walls_beat_odometry_alone_from_a_known_start(flat, search_walk):
 def test_search_patterns_find_an_unknown_start_where_walls_alone_do_not(flat, search_walk):
     """§V-C, Fig. 8 (b): without prior on the start, the conventional filter (walls only)
     loses itself; with pseudo-observations and resampling it settles to about 1 m."""
-    params = {"particles": 500, "init": "unknown", "seed": 2}
+    params = {"particles": 500, "start": {"mode": "unknown"}, "seed": 2}
     rec, counts = run(flat, search_walk, params,
                       [(WallCrossingConstraint, {}), (SearchPatternIcpConstraint, {})])
     walls_only, _ = run(flat, search_walk, params, [(WallCrossingConstraint, {})])
@@ -126,7 +131,7 @@ def straight_walk(n=60, agent="ff1"):
 
 
 def test_map_error_diagnostic_fires_above_3_m2_and_clears(flat):
-    pf, rec, _ = make_component(ParticleFilter, {"init": "known", "start": (5.0, 5.0, 0.0)},
+    pf, rec, _ = make_component(ParticleFilterEstimator, {"start": pose_start(5.0, 5.0)},
                                 building=flat)
     pf.constraints.append(make_component(Disturb, {}, building=flat, cid="disturb")[0])
     for msg in straight_walk():
@@ -150,7 +155,7 @@ def test_spread_monitor_periods():
 
 
 def test_bad_odometry_is_counted_and_skipped(flat):
-    pf, rec, stats = make_component(ParticleFilter, {"init": "known", "start": (5, 5, 0)},
+    pf, rec, stats = make_component(ParticleFilterEstimator, {"start": pose_start(5, 5)},
                                     building=flat)
     good = straight_walk(3)
     bad = Odometry(t=2.5, agent="ff1", t_start=2.0, delta=np.array([np.nan, 0, 0]), dheading=0.0,
@@ -158,15 +163,18 @@ def test_bad_odometry_is_counted_and_skipped(flat):
     for msg in (good[0], good[1], bad, good[1], good[2]):
         pf.handle("odo", msg)
     counts = stats.counts["under_test"]
-    assert counts["bad_odometry_skipped"] == 1
-    assert counts["odometry_out_of_order_skipped"] == 1
+    assert counts["bad_odometry"] == 1 and counts["stale_odometry"] == 1
+    assert [d.code for d in rec.on("diagnostics")] == ["bad_odometry"]
     assert len(rec.on("pose")) == 3
 
 
 def test_configuration_errors_are_specific(flat):
-    with pytest.raises(ValueError, match="init: known needs start"):
-        make_component(ParticleFilter, {"init": "known"}, building=flat)
-    pf, _, _ = make_component(ParticleFilter, {"init": "entrance", "entrance": "back_door"},
+    with pytest.raises(ValueError, match="mode 'pose' needs a position"):
+        make_component(ParticleFilterEstimator, {"start": {"mode": "pose"}}, building=flat)
+    with pytest.raises(ValueError, match="read only with mode 'pose'"):
+        make_component(ParticleFilterEstimator, {"start": {"position": (1, 1, 0)}}, building=flat)
+    pf, _, _ = make_component(ParticleFilterEstimator,
+                              {"start": {"mode": "entrance", "entrance": "back_door"}},
                               building=flat)
     with pytest.raises(ValueError, match="no entrance 'back_door'"):
         pf.handle("odo", straight_walk(1)[0])
@@ -174,11 +182,12 @@ def test_configuration_errors_are_specific(flat):
 
 def test_entrance_start_and_truth_start(flat):
     rec, _ = run(flat, drifting_walk(np.array([[0.5, 4.9], [6.0, 4.9]]), seed=3),
-                 {"init": "entrance", "particles": 200})
+                 {"start": {"mode": "entrance", "sigma_heading": "30 deg"},
+                  "particles": 200})
     first = rec.on("pose")[0]
     assert np.hypot(*(first.position[:2] - [0.0, 4.9])) < 1.5
     walk = drifting_walk(np.array([[3.0, 2.0], [3.0, 3.5]]), seed=3)
-    rec, _ = run(flat, walk, {"init": "truth", "particles": 200})
+    rec, _ = run(flat, walk, {"start": {"mode": "truth"}, "particles": 200})
     assert np.hypot(*(rec.on("pose")[0].position[:2] - walk.truth_xy[1])) < 0.5
 
 
@@ -189,8 +198,9 @@ def test_floor_changes_on_the_stair():
         f.room(f"r{level}", (0, 0, 10, 4))
     sk.floors[0].stair("s", [(2, 2), (8, 2)], floor_to=1, width=1.2)
     b = sk.build()
-    pf, rec, _ = make_component(ParticleFilter, {"init": "known", "start": (1.5, 2.0, 0.0),
-                                                 "particles": 200, "position_noise_m": 0.02},
+    pf, rec, _ = make_component(ParticleFilterEstimator, {"start": pose_start(1.5, 2.0),
+                                                          "particles": 200,
+                                                          "motion": {"position_noise": 0.02}},
                                 building=b)
     pos = np.zeros(3)
     for k in range(1, 9):            # 8 x 0.8 m up the 6 m stair, rising 3 m
@@ -205,7 +215,7 @@ def test_floor_changes_on_the_stair():
 
 
 def test_plugin_conformance(flat):
-    check_plugin(ParticleFilter, {"particles": 50}, sample_input=[("odo", m) for m in straight_walk(4)]
+    check_plugin(ParticleFilterEstimator, {"particles": 50}, sample_input=[("odo", m) for m in straight_walk(4)]
                  + [("truth", GroundTruth(t=5.0, agent="ff1", position=np.zeros(3)))],
                  building=flat, exclude=known("estimator", "particle_filter"))
     check_plugin(WallCrossingConstraint)
@@ -218,9 +228,10 @@ def test_standing_still_spreads_the_cloud_only_with_noise_while_still(flat, nois
     spreads the cloud over the room; without it the cloud keeps its start spread and
     moves by the increments alone."""
     start = np.array([2.2, 2.0])                       # middle of the bedroom at the origin
-    pf, rec, _ = make_component(ParticleFilter, {"init": "known", "start": (*start, 0.0),
+    pf, rec, _ = make_component(ParticleFilterEstimator, {"start": pose_start(*start),
                                                  "particles": 400,
-                                                 "noise_while_still": noise_while_still},
+                                                          "motion": {"noise_while_still":
+                                                                     noise_while_still}},
                                 building=flat)
     pf.constraints.append(make_component(WallCrossingConstraint, {}, building=flat, cid="walls")[0])
     pos, delta = np.zeros(3), np.array([0.002, 0.0, 0.0])
@@ -250,8 +261,9 @@ def test_yaw_rate_state_follows_an_uncalibrated_gyro(flat, search_walk):
     walk = drifting_walk(np.vstack([loop, loop, loop[:1]]), seed=5, drift_deg_per_min=15.0)
     rmse: dict[float, float] = {}
     for sigma in (0.0, 0.3):
-        pf, rec, _ = make_component(ParticleFilter, {"particles": 500, "init": "truth", "seed": 3,
-                                                     "yaw_rate_sigma_dps": sigma}, building=flat)
+        pf, rec, _ = make_component(ParticleFilterEstimator, {
+            "particles": 500, "start": {"mode": "truth"}, "seed": 3,
+            "motion": {"yaw_rate_sigma": f"{sigma} deg/s"}}, building=flat)
         pf.constraints.append(make_component(WallCrossingConstraint, {}, building=flat, cid="walls")[0])
         for stream, msg in walk.messages():
             pf.handle(stream, msg)

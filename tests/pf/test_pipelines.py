@@ -13,7 +13,7 @@ PIPELINES = Path(__file__).resolve().parents[2] / "pipelines"
 @pytest.mark.parametrize("name, overrides", [
     ("demo.yaml", []),
     ("search-pattern-pf.yaml", []),
-    ("search-pattern-pf.yaml", ["estimators.pf.init=truth",
+    ("search-pattern-pf.yaml", ["estimators.pf.start.mode=truth",
                                 "building=search-pattern-pf/flat_125_moved_door.geojson"]),
 ])
 def test_bundled_pipeline_validates(name, overrides):
@@ -21,4 +21,4 @@ def test_bundled_pipeline_validates(name, overrides):
     pf = spec.by_id("pf")
     assert pf.params.particles > 0
     if name == "demo.yaml":       # the demo's INS is uncalibrated: the filter carries the drift
-        assert pf.params.yaw_rate_sigma_dps > 0 and not pf.params.noise_while_still
+        assert pf.params.motion.yaw_rate_sigma > 0 and not pf.params.motion.noise_while_still

@@ -12,7 +12,7 @@ from firenav_framework.building.sketch import PlanSketch
 from firenav_framework.testing import make_component
 from firenav_plugins.constraints.wall_crossing import WallCrossingConstraint
 from firenav_framework.capabilities import ParticleConstraint, Particles, ParticleStep
-from firenav_plugins.estimators.particle_filter import ParticleFilter
+from firenav_plugins.estimators.particle_filter import ParticleFilterEstimator
 from firenav_framework.capabilities import OdometryHistory
 
 
@@ -100,8 +100,9 @@ class Probe(ParticleConstraint):
 
 
 def test_filter_keeps_only_particles_whose_moves_did_not_cross(building):
-    pf, rec, stats = make_component(ParticleFilter, {"particles": 3000, "init": "unknown",
-                                                     "resample_below_ess": 0.0}, building=building)
+    pf, rec, stats = make_component(ParticleFilterEstimator, {
+        "particles": 3000, "start": {"mode": "unknown"}, "resampling": {"below_ess": 0.0}},
+        building=building)
     wc, _, _ = make_component(WallCrossingConstraint, {}, building=building, cid="walls")
     probe, _, _ = make_component(Probe, {}, building=building, cid="probe")
     pf.constraints += [wc, probe]

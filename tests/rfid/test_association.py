@@ -9,7 +9,7 @@ import pytest
 from firenav_framework import TagDeployment, TagDetection
 from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.testing import make_component
-from firenav_plugins.estimators.pdr_ekf import PdrEkf
+from firenav_plugins.estimators.pdr_ekf import PdrEkfEstimator
 
 from .synth import closest_passes, deployments, feed, odometry, walk
 
@@ -26,7 +26,7 @@ def deploy(building, w, doors, *, scale=1.0, rate=0.0, **params):
     sites = {d: building.door(d).center for d in doors}
     tags = {d: f"T_{d}" for d in doors}
     odo = odometry(w, scale=scale, rate=rate)
-    ekf, rec, stats = make_component(PdrEkf, params, building=building)
+    ekf, rec, stats = make_component(PdrEkfEstimator, params, building=building)
     ekf.start()
     feed(ekf, odo + deployments(closest_passes(w, sites), tags))
     return ekf, rec, tags
@@ -61,7 +61,7 @@ def test_a_second_tag_on_a_tagged_door_takes_the_next_free_site(building):
     t = closest_passes(w, {"d": (6.5, 8.0)})[0][0]
     deps = [TagDeployment(t=t, agent="ff1", device="ff1/rfid", tag_id="A"),
             TagDeployment(t=t + 0.5, agent="ff1", device="ff1/rfid", tag_id="B")]
-    ekf, _, _ = make_component(PdrEkf, {}, building=building)
+    ekf, _, _ = make_component(PdrEkfEstimator, {}, building=building)
     ekf.start()
     feed(ekf, odometry(w) + deps)
     assert ekf.tags.lookup("A").id == "d0_n1"
@@ -74,8 +74,8 @@ def test_the_floor_comes_from_the_height(building):
     w = walk([(4.0, 7.0), (1.6, 7.4), (1.4, 9.0)], stride=0.9)
     odo = odometry(w)
     t = closest_passes(w, {"s": (1.4, 8.0)})[0][0]
-    ekf, _, _ = make_component(PdrEkf, dict(alignment="pose", start_position=(4.0, 7.0, 3.5),
-                                            start_heading=math.atan2(0.4, -2.4)),
+    ekf, _, _ = make_component(PdrEkfEstimator, {"start": {"mode": "pose", "position": (4.0, 7.0, 3.5),
+                                                      "heading": math.atan2(0.4, -2.4)}},
                                building=building)
     ekf.start()
     feed(ekf, odo + [TagDeployment(t=t, agent="ff1", device="ff1/rfid", tag_id="S")])
@@ -113,7 +113,7 @@ def test_a_deployment_far_from_every_site_is_reported_with_a_gate(building):
     dep = TagDeployment(t=float(w.t[-1]), agent="ff1", device="ff1/rfid", tag_id="LOST")
     read = TagDetection(t=float(w.t[-1]) + 5.0, agent="ff1", device="ff1/rfid",
                         tag_id="LOST", reads=2)
-    ekf, rec, stats = make_component(PdrEkf, dict(associate_gate=2.0, repeat_holdoff=0.0),
+    ekf, rec, stats = make_component(PdrEkfEstimator, {"rfid": {"associate_gate": 2.0, "repeat_holdoff": 0.0}},
                                      building=building)
     ekf.start()
     feed(ekf, odometry(w) + [dep, read])

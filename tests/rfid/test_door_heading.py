@@ -8,10 +8,10 @@ import pytest
 
 from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.testing import make_component
-from firenav_plugins.estimators.pdr_ekf import PdrEkf
+from firenav_plugins.estimators.pdr_ekf import PdrEkfEstimator
 from firenav_plugins.estimators.pdr_ekf.door_heading import (DoorHeadingConfig, HeadingWindow,
                                                               door_heading_measurement)
-from firenav_plugins.estimators.pdr_ekf.filter import wrap
+from firenav_framework.geometry import wrap_angle
 
 from .synth import closest_passes, detections, feed, odometry, walk
 
@@ -49,7 +49,7 @@ def test_180_degree_ambiguity_resolved_both_directions(true_crossing, bias):
     the bias both ways."""
     mems = [true_crossing - bias + d for d in (-3 * DEG, 0.0, 3 * DEG)]
     m = door_heading_measurement(window(90 * DEG, mems), 0.0, CFG)
-    assert wrap(m.crossing - true_crossing) == pytest.approx(0.0, abs=1e-9)
+    assert wrap_angle(m.crossing - true_crossing) == pytest.approx(0.0, abs=1e-9)
     assert m.z == pytest.approx(bias, abs=1e-6)
 
 
@@ -59,9 +59,9 @@ def test_ambiguity_uses_the_heading_history():
     true_crossing, bias = -90 * DEG, 120 * DEG
     mems = [true_crossing - bias] * 3
     wrong = door_heading_measurement(window(90 * DEG, mems), 0.0, CFG)
-    assert wrap(wrong.crossing - true_crossing) == pytest.approx(math.pi)
+    assert wrap_angle(wrong.crossing - true_crossing) == pytest.approx(math.pi)
     right = door_heading_measurement(window(90 * DEG, mems), 115 * DEG, CFG)
-    assert wrap(right.crossing - true_crossing) == pytest.approx(0.0, abs=1e-9)
+    assert wrap_angle(right.crossing - true_crossing) == pytest.approx(0.0, abs=1e-9)
     assert right.z == pytest.approx(bias)
 
 
@@ -108,9 +108,10 @@ def test_door_update_removes_a_known_heading_bias(building):
     w = walk([(16.5, 6.75), (16.5, 13.5)], stride=0.9)
     odo = odometry(w, yaw=0.7)
     start_heading = math.pi / 2 + bias         # a wrongly measured start heading
-    ekf, rec, stats = make_component(PdrEkf, dict(
-        alignment="pose", start_position=(16.5, 6.75, 0.0), start_heading=start_heading,
-        start_sigma_heading=20 * DEG, surveyed_tags={"T1": "d0_n3"}), building=building)
+    ekf, rec, stats = make_component(PdrEkfEstimator, {
+        "start": {"mode": "pose", "position": (16.5, 6.75, 0.0), "heading": start_heading,
+                  "sigma_heading": 20 * DEG}, "rfid": {"surveyed": {"T1": "d0_n3"}}},
+        building=building)
     ekf.start()
     passes = closest_passes(w, {"d0_n3": (16.5, 8.0)})
     feed(ekf, odo + detections(passes, {"d0_n3": "T1"}))

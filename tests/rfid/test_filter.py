@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from firenav_plugins.estimators.pdr_ekf.filter import (I_DTHETA, I_LAMBDA, PdrFilter, rot2,
-                                                        wrap)
+from firenav_framework.geometry import rot2, wrap_angle
+from firenav_plugins.estimators.pdr_ekf.filter import I_DTHETA, I_LAMBDA, PdrFilter
 
 DEG = math.pi / 180
 
@@ -80,7 +80,7 @@ def test_gate_rejects_or_relocates():
 def test_heading_update_and_wrap():
     f = make(x=(0, 0, 0, 1, 175 * DEG), p=(1, 1, 1, 0.01, 30 * DEG))
     f.update_heading(-175 * DEG, (1 * DEG) ** 2)     # 10 deg away across the +-180 cut
-    assert abs(wrap(f.x[I_DTHETA] - (-175 * DEG))) < 0.5 * DEG
+    assert abs(wrap_angle(f.x[I_DTHETA] - (-175 * DEG))) < 0.5 * DEG
     assert -math.pi < f.x[I_DTHETA] <= math.pi
 
 

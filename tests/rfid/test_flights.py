@@ -16,7 +16,7 @@ import pytest
 from firenav_framework import TagDetection
 from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.testing import make_component
-from firenav_plugins.estimators.pdr_ekf import PdrEkf
+from firenav_plugins.estimators.pdr_ekf import PdrEkfEstimator
 from firenav_plugins.estimators.pdr_ekf.flight_tracker import FlightTracker
 from firenav_plugins.estimators.pdr_ekf.height import StairFlights, stair_flights
 
@@ -235,7 +235,7 @@ def test_a_floor_is_no_landing(tracker, building):
 STAIR_TOP_TAG = "E2000000A1B2"
 
 
-def missed_climb(building, **params):
+def missed_climb(building, **rfid):
     """Up stair01 with an INS that sees no height at all (every stride level), then a
     read of the tag surveyed at the stair's top, then a few level strides."""
     w = join(walk([(4.5, 6.75), (1.4, 6.9), (1.4, 8.0)], stride=1.0),
@@ -245,10 +245,10 @@ def missed_climb(building, **params):
     odo = odometry(w, yaw=0.4)
     read = TagDetection(t=float(w.t[top]) + 0.3, agent="ff1", device="ff1/rfid",
                         tag_id=STAIR_TOP_TAG, reader="ff1/rfid", rssi_dbm=-45.0, reads=4)
-    ekf, rec, stats = make_component(PdrEkf, dict(
-        alignment="pose", start_position=(4.5, 6.75, 0.0),
-        start_heading=math.atan2(0.15, -3.1), door_heading=False,
-        surveyed_tags={STAIR_TOP_TAG: "stair01/top"}, **params), building=building)
+    ekf, rec, stats = make_component(PdrEkfEstimator, {
+        "start": {"mode": "pose", "position": (4.5, 6.75, 0.0),
+                  "heading": math.atan2(0.15, -3.1)}, "door_heading": {"enabled": False},
+        "rfid": {"surveyed": {STAIR_TOP_TAG: "stair01/top"}, **rfid}}, building=building)
     ekf.start()
     feed(ekf, [*odo, read])
     return rec.on("pose"), stats.counts["under_test"], read.t
@@ -267,6 +267,6 @@ def test_a_tag_a_flight_away_sets_the_height_to_its_level(building):
 def test_without_the_level_reset_one_tag_read_moves_the_height_only_part_way(building):
     """Why the reset: the Gaussian update with the tag's height noise (0.1 m) against a
     height known to centimetres moves it by a fraction of the 3.5 m missed."""
-    poses, counts, _ = missed_climb(building, tag_level_gate=None)
+    poses, counts, _ = missed_climb(building, level_gate=None)
     assert "tag_level_relocations" not in counts and counts["tag_updates"] == 1
     assert 0.0 < poses[-1].position[2] < 1.75 and poses[-1].floor == 0

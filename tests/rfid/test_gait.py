@@ -8,7 +8,7 @@ import pytest
 
 from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.testing import make_component
-from firenav_plugins.estimators.pdr_ekf import PdrEkf
+from firenav_plugins.estimators.pdr_ekf import PdrEkfEstimator
 from firenav_plugins.estimators.pdr_ekf.gait import GaitClassifier, count_stairs
 from firenav_plugins.estimators.pdr_ekf.height import snap_levels
 
@@ -42,9 +42,9 @@ def stairwell_round_trip() -> tuple:
 def run(building, w, dz_noise=0.03, labels=False, **params):
     odo = odometry(w, yaw=0.4, dz_noise=dz_noise, gradient=(0.05, -0.03), labels=labels,
                    rng=np.random.default_rng(3))
-    ekf, rec, stats = make_component(PdrEkf, dict(
-        alignment="pose", start_position=(4.5, 6.75, 0.0),
-        start_heading=math.atan2(0.15, -3.1), **params), building=building)
+    ekf, rec, stats = make_component(PdrEkfEstimator, {
+        "start": {"mode": "pose", "position": (4.5, 6.75, 0.0),
+                  "heading": math.atan2(0.15, -3.1)}, **params}, building=building)
     ekf.start()
     feed(ekf, odo)
     return rec.on("pose"), stats.counts["under_test"]
@@ -71,7 +71,8 @@ def test_climb_and_backward_descent_give_the_right_floors(building):
     assert counts.get("strides_SDF", 0) <= 1      # the descent is recognised as backward
 
 
-@pytest.mark.parametrize("params", [dict(gait_source="odometry"), dict(height_source="ins")],
+@pytest.mark.parametrize("params", [{"gait": {"source": "odometry"}},
+                                    {"height": {"source": "ins"}}],
                          ids=["ins_labels", "ins_height"])
 def test_other_gait_and_height_sources(building, params):
     """The odometry's own motion labels, or the INS height change (drift-corrected)
@@ -80,7 +81,7 @@ def test_other_gait_and_height_sources(building, params):
     poses, counts = run(building, w, labels=True, **params)
     top = [p for p in poses if p.t <= up.t[-1]][-1]
     assert top.floor == 1 and poses[-1].floor == 0
-    if "gait_source" in params:
+    if "gait" in params:
         assert counts["strides_SDB"] == 10 and counts["strides_SC"] == 10
     else:
         assert top.position[2] == pytest.approx(3.5, abs=0.1)   # snapped, then INS noise
@@ -91,8 +92,8 @@ def test_nominal_20cm_stairs_without_map_aid(building):
     still right (floor 1 spans 1.75 m to 5.25 m). Without INS height noise: a stride of
     two 17.5 cm stairs is 1.75 nominal stairs, so noise would sometimes round it to one."""
     up, _ = stairwell_round_trip()
-    poses, counts = run(building, up, dz_noise=0.0, step_height_from_building=False,
-                        floor_snap=0.0, stair_zone=None)
+    poses, counts = run(building, up, dz_noise=0.0, height={
+        "step_height_from_building": False, "floor_snap": 0.0, "stair_zone": None})
     assert poses[-1].position[2] == pytest.approx(20 * 0.20, abs=1e-6)
     assert poses[-1].floor == 1
 

@@ -14,7 +14,7 @@ import pytest
 from firenav_framework import Odometry, TagDetection
 from firenav_framework.building import bundled_plan, load_building
 from firenav_framework.testing import check_plugin, make_component
-from firenav_plugins.estimators.pdr_ekf import PdrEkf
+from firenav_plugins.estimators.pdr_ekf import PdrEkfEstimator
 from tests.contract.known import known
 
 from .synth import (closest_passes, deployments, detections, feed, odometry, track_errors,
@@ -51,7 +51,7 @@ def team(building):
 
 
 def run(building, msgs, **params):
-    ekf, rec, stats = make_component(PdrEkf, params, building=building)
+    ekf, rec, stats = make_component(PdrEkfEstimator, params, building=building)
     ekf.start()
     feed(ekf, msgs)
     return ekf, rec, stats.counts.get("under_test", {})
@@ -71,7 +71,7 @@ def test_first_team_tags_are_associated_with_the_right_doors(building, team):
 def test_rfid_beats_mems_alone_and_the_second_team_benefits(building, team):
     w1, w2, odo, msgs = team
     _, rec, counts = run(building, msgs)
-    _, rec_mems, _ = run(building, odo, rfid=False)
+    _, rec_mems, _ = run(building, odo, rfid={"enabled": False})
     for agent, truth in (("ff1", w1), ("ff2", w2)):
         hybrid = track_errors(rec.on("pose"), truth, agent)
         mems = track_errors(rec_mems.on("pose"), truth, agent)
@@ -116,7 +116,7 @@ def test_a_tag_far_from_the_estimate_relocates_or_is_refused(building):
     odo = odometry(w)
     far = TagDetection(t=float(w.t[-2]), agent="ff1", device="ff1/rfid", tag_id="T", reads=4)
     for mode, code in (("relocate", "tag_relocation"), ("reject", "tag_rejected")):
-        _, rec, counts = run(building, odo + [far], surveyed_tags={"T": "d0_n5"}, on_gate=mode)
+        _, rec, counts = run(building, odo + [far], rfid={"surveyed": {"T": "d0_n5"}, "on_gate": mode})
         assert [d.code for d in rec.on("diagnostics") if d.level == "warning"] == [code]
         end = rec.on("pose")[-1].position
         if mode == "relocate":
@@ -142,14 +142,19 @@ def test_bad_odometry_is_counted_and_skipped(building):
 
 
 def test_configuration_errors_are_clear(building):
-    with pytest.raises(ValueError, match="start_position and start_heading"):
-        PdrEkf.Params.model_validate({"alignment": "pose"})
-    ekf, _, _ = make_component(PdrEkf, {"surveyed_tags": {"T": "nowhere"}}, building=building)
-    with pytest.raises(ValueError, match="surveyed_tags: no tag site 'nowhere'"):
+    with pytest.raises(ValueError, match="mode 'pose' needs a position"):
+        PdrEkfEstimator.Params.model_validate({"start": {"mode": "pose"}})
+    with pytest.raises(ValueError, match="mode 'pose' needs a heading"):
+        PdrEkfEstimator.Params.model_validate({"start": {"mode": "pose", "position": (1, 2, 0)}})
+    with pytest.raises(ValueError, match="start mode 'truth' is not available"):
+        PdrEkfEstimator.Params.model_validate({"start": {"mode": "truth"}})
+    ekf, _, _ = make_component(PdrEkfEstimator, {"rfid": {"surveyed": {"T": "nowhere"}}},
+                               building=building)
+    with pytest.raises(ValueError, match="rfid.surveyed: no tag site 'nowhere'"):
         ekf.start()
 
 
 def test_is_a_conforming_plugin(building, team):
     _, _, _, msgs = team
-    check_plugin(PdrEkf, building=building, sample_input=[("in", m) for m in msgs[:40]],
+    check_plugin(PdrEkfEstimator, building=building, sample_input=[("in", m) for m in msgs[:40]],
                  exclude=known("estimator", "pdr_ekf"))

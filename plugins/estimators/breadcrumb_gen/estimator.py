@@ -2,26 +2,26 @@
 
 Nodes of the extended relative measurement graph (§IV-E):
 
-* the base station - an anchor at ``base_position`` (or the building's anchor ``base_id``);
+* the base station - an anchor at ``base.position`` (or the building's anchor ``base.id``);
 * breadcrumbs - static; a drop adds the node with a relative-position edge to the
   dropping firefighter's state (its initial position comes from that firefighter's
   odometry, §V-A); a kicked breadcrumb (a ``moved`` drop from the sensor, §V-C) becomes
-  a new node ``<id>#<n>`` tied to the old one by ``kick_sigma``;
+  a new node ``<id>#<n>`` tied to the old one by ``breadcrumbs.kick_sigma``;
 * firefighter states ``<agent>@<k>`` - one per odometry step, each with a heading state
-  ``<agent>@<k>/heading`` (below). The last ``window`` states of each firefighter stay in
+  ``<agent>@<k>/heading`` (below). The last ``graph.window`` states of each firefighter stay in
   the graph; older ones are marginalised (DeleteNode, eq. 17).
 
 Edges: odometry steps, RSSI ranges (eqs. 18-21, with the antennas' heights as a constant
 offset), encounters (the two nodes at the same place, linear), drops and kicks (linear).
-Outliers (§IV-F): a step faster than ``max_speed`` is physically impossible and replaced
-by the bare speed limit; a range whose innovation exceeds ``range_gate`` sigmas is
-dropped, one beyond ``range_weaken`` sigmas weakened (its variance scaled up to sit at
-``range_weaken`` sigmas). A range shorter than ``near_range_m`` - or between nodes whose
+Outliers (§IV-F): a step faster than ``odometry.max_speed`` is physically impossible and
+replaced by the bare speed limit; a range whose innovation exceeds ``radio.gate`` sigmas
+is dropped, one beyond ``radio.weaken`` sigmas weakened (its variance scaled up to sit at
+``radio.weaken`` sigmas). A range shorter than ``radio.near_range`` - or between nodes whose
 estimated distance is below their relative uncertainty, where its direction is
 meaningless - enters as a zero relative position with the range's spread ("the nodes
 are within r of each other").
 
-Beyond the paper (``heading_states``; false gives the paper's GEN): a foot INS errs
+Beyond the paper (``heading.enabled``; false gives the paper's GEN): a foot INS errs
 mostly by a drifting heading (residual gyro bias, warm-up drift, gyro scale factor on
 every turn), which independent step edges cannot express: a heading error bends whole
 stretches of track, and the paper's position-only states would have to explain that
@@ -36,7 +36,7 @@ range). A loop closure at the base station or a breadcrumb then corrects the hea
 its drift rate and the breadcrumbs dropped on the drifting track, as one BLUE.
 
 The odometry must be in the building frame (e.g. ``dead_reckoning`` output, which places
-the INS track with the known start pose), or be rotated into it by ``odometry_heading``
+the INS track with the known start pose), or be rotated into it by ``odometry.rotation``
 per agent: ranges and encounters fix positions relative to the base station but cannot
 observe a rotation of the whole track about it, so the initial heading is an input
 (the paper's firefighters start at the base station with a known heading).
@@ -54,13 +54,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from firenav_framework import (BreadcrumbDrop, Estimator, Odometry, Params, PoseEstimate,
-                               Range, param)
-from firenav_framework.geometry import wrap_angle
+from firenav_framework import BreadcrumbDrop, Estimator, Odometry, PoseEstimate, Range
+from firenav_framework.contract import NoBuilding
+from firenav_framework.geometry import planar_rotation, wrap_angle
 
+from ..odometry_input import accept_odometry
 from .network import GeneralizedElectricalNetwork
+from .params import BreadcrumbGenParams
 
-Vec3 = tuple[float, float, float]
+__all__ = ["BreadcrumbGenEstimator"]
 
 
 @dataclass
@@ -78,95 +80,23 @@ class _Agent:
     heading_var: float = 0.0        # summed INS heading variance (without heading states)
     pending: list = field(default_factory=list)          # radio/drop events waiting for a state
     last_range: dict = field(default_factory=dict)       # node -> t of the last range used
-    warned: set = field(default_factory=set)
 
 
-class BreadcrumbGen(Estimator):
+class BreadcrumbGenEstimator(Estimator):
     """Breadcrumb GEN/RMG: firefighters and breadcrumbs localised together (breadcrumb paper)."""
 
     name = "breadcrumb_gen"
     inputs = (Odometry, Range, BreadcrumbDrop)
     outputs = {"pose": PoseEstimate, "breadcrumbs": PoseEstimate}
 
-    class Params(Params):
-        base_id: str = param("base", description="node id of the base station (the anchor)")
-        base_position: Vec3 | None = param(None, unit="m", description="base station antenna "
-                                           "position (x, y, z), building frame; null: the "
-                                           "building's anchor base_id")
-        start_positions: dict[str, Vec3] = param({}, unit="m", description="per agent: start "
-                                                 "position; default: the odometry's own "
-                                                 "position before its first step")
-        start_sigma: float = param(0.5, unit="m", gt=0, description="start position "
-                                   "uncertainty per horizontal axis (relative to the base)")
-        odometry_heading: dict[str, float] = param({}, unit="rad", description="per agent: "
-                                                   "rotation from the odometry frame into "
-                                                   "the building frame (default 0: odometry "
-                                                   "already in the building frame)")
-        odometry_noise_per_m: float = param(0.05, ge=0, description="extra horizontal std per "
-                                            "axis per metre of step, for INS errors the "
-                                            "per-step covariance leaves out")
-        max_speed: float = param(5.0, unit="m/s", gt=0, description="a step faster than this "
-                                 "is impossible and dropped (§IV-F)")
-        drop_sigma: float = param(0.3, unit="m", gt=0, description="a dropped breadcrumb lies "
-                                  "this close to the dropping foot, per horizontal axis")
-        kick_sigma: float = param(1.5, unit="m", gt=0, description="displacement of a kicked "
-                                  "breadcrumb per horizontal axis (§V-C: 1-2 m)")
-        agent_antenna_height: float = param(1.2, unit="m", ge=0, description="worn radio "
-                                            "above the foot")
-        breadcrumb_antenna_height: float = param(0.05, unit="m", ge=0, description="breadcrumb "
-                                                 "antenna above the floor")
-        use_ranges: bool = param(True, description="use RSSI ranges (false: PDR with drops "
-                                 "and encounters only)")
-        use_encounters: bool = param(True, description="use encounter events")
-        max_range_m: float = param(1.5, unit="m", gt=0, description="longer RSSI ranges are "
-                                   "not used (§V-B: ranges within 1.5 m are relatively "
-                                   "accurate; walls and the body bias longer ones)")
-        near_range_m: float = param(1.5, unit="m", gt=0, description="shorter ranges enter "
-                                    "as a zero relative position of that spread")
-        range_period: float = param(2.0, unit="s", ge=0, description="at most one range per "
-                                    "firefighter and node in this time (shadowing is "
-                                    "correlated over metres)")
-        static_samples: int = param(10, ge=1, description="readings averaged (median) into "
-                                    "the single range edge between two fixed nodes")
-        range_gate: float = param(4.0, gt=0, description="innovation [sigmas] above which a "
-                                  "range or encounter is dropped (§IV-F)")
-        range_weaken: float = param(2.0, gt=0, description="innovation [sigmas] above which a "
-                                    "range's variance is inflated (§IV-F)")
-        time_match: float = param(1.0, unit="s", gt=0, description="a radio event is tied to "
-                                  "the firefighter state nearest in time, at most this far")
-        window: int = param(20, ge=2, description="past states per firefighter kept in the "
-                            "graph; older ones are marginalised (§IV-E, eq. 17)")
-        window_max: int = param(200, ge=2, description="past states kept at most while the "
-                                "oldest one's heading is unsettled (heading states; "
-                                "never fewer than window)")
-        settle_heading_sigma: float = param(0.1, unit="rad", gt=0, description="a state is "
-                                            "marginalised only once its heading is known "
-                                            "this well (heading states)")
-        relinearize_sigma: float = param(0.1, gt=0, description="re-linearise a range when "
-                                         "its linearisation error exceeds this many sigmas")
-        max_active_dims: int = param(600, ge=30, description="dense active set of the "
-                                     "incremental solver before refactorising")
-        heading_states: bool = param(True, description="estimate each firefighter's INS "
-                                     "heading error, its drift rate and turn scale error in "
-                                     "the graph (false: the paper's position-only GEN)")
-        heading_sigma: float = param(0.035, unit="rad", gt=0, description="uncertainty of "
-                                     "the start heading (the known start pose)")
-        heading_rate_sigma: float = param(0.009, unit="rad/s", gt=0, description="residual "
-                                          "gyro bias about z at the start (after the INS's "
-                                          "still alignment)")
-        heading_rate_walk: float = param(1e-4, unit="rad/s/sqrt(s)", ge=0, description="random "
-                                         "walk of that bias (warm-up drift, bias instability)")
-        turn_scale_sigma: float = param(0.02, gt=0, description="gyro scale-factor error: "
-                                        "heading error per radian the INS turned")
-        turn_scale_walk: float = param(1e-3, ge=0, description="random walk of the "
-                                       "scale-factor error per step")
+    Params = BreadcrumbGenParams
 
-    def __init__(self, params: Params, ctx) -> None:
+    def __init__(self, params: BreadcrumbGenParams, ctx) -> None:
         super().__init__(params, ctx)
         p = self.params
-        self.gen = GeneralizedElectricalNetwork(3, relinearize_sigma=p.relinearize_sigma,
-                                                max_active_dims=p.max_active_dims,
-                                                hot_nodes=max(8, p.max_active_dims // 12))
+        self.gen = GeneralizedElectricalNetwork(3, relinearize_sigma=p.graph.relinearize_sigma,
+                                                max_active_dims=p.graph.max_active_dims,
+                                                hot_nodes=max(8, p.graph.max_active_dims // 12))
         self._agents: dict[str, _Agent] = {}
         self._crumbs: dict[str, str] = {}             # breadcrumb id -> current graph node
         self._kicks: dict[str, int] = {}              # breadcrumb id -> relocations so far
@@ -182,19 +112,19 @@ class BreadcrumbGen(Estimator):
         if self._base_ready:
             return
         p = self.params
-        pos = p.base_position
+        pos = p.base.position
         if pos is None:
             try:
                 building = self.ctx.building
-            except RuntimeError:
-                raise ValueError("breadcrumb_gen needs base_position, or a building with an "
-                                 f"anchor {p.base_id!r}") from None
-            anchor = next((a for a in building.anchors if a.id == p.base_id), None)
+            except NoBuilding:
+                raise ValueError("breadcrumb_gen needs base.position, or a building with an "
+                                 f"anchor {p.base.id!r}") from None
+            anchor = next((a for a in building.anchors if a.id == p.base.id), None)
             if anchor is None:
-                raise ValueError(f"the building has no anchor {p.base_id!r}; set "
-                                 "base_position")
+                raise ValueError(f"the building has no anchor {p.base.id!r}; set "
+                                 "base.position")
             pos = anchor.position
-        self.gen.add_anchor(p.base_id, np.asarray(pos, float))
+        self.gen.add_anchor(p.base.id, np.asarray(pos, float))
         self._base_ready = True
 
     def reset(self, agent: str) -> None:
@@ -223,16 +153,10 @@ class BreadcrumbGen(Estimator):
     # -- odometry: a new firefighter state ---------------------------------------------------------
     def _odometry(self, msg: Odometry) -> None:
         p = self.params
-        problem = _odometry_problem(msg)
-        if problem:
-            self.ctx.count("odometry_skipped")
-            self._warn(msg.agent, msg.t, "bad_odometry", f"odometry skipped: {problem}")
+        st = self._agent(msg.agent)     # a firefighter, even if this step is unusable
+        if not accept_odometry(self.ctx, msg, st.states[-1].t if st.states else None):
             return
-        st = self._agent(msg.agent)
-        if st.states and msg.t <= st.states[-1].t:
-            self.ctx.count("odometry_out_of_order")
-            return
-        rot = _rotation(p.odometry_heading.get(msg.agent, 0.0))
+        rot = planar_rotation(p.odometry.rotation.get(msg.agent, 0.0))
         delta = rot @ np.asarray(msg.delta, float)
         cov = rot @ np.asarray(msg.cov, float)[:3, :3] @ rot.T
         dt = max(msg.t - msg.t_start, 1e-3)
@@ -243,18 +167,19 @@ class BreadcrumbGen(Estimator):
             prev = st.states[-1]
             key = f"{msg.agent}@{st.count}"
             st.count += 1
-            heading = self._heading_state(msg, key, prev) if p.heading_states else None
+            heading = self._heading_state(msg, key, prev) if p.heading.enabled else None
             self.gen.add_node(key)
-            if step / dt > p.max_speed:                 # §IV-F: physically impossible
+            if step / dt > p.odometry.max_speed:                 # §IV-F: physically impossible
                 self.ctx.count("odometry_too_fast")
-                self._warn(msg.agent, msg.t, "odometry_too_fast",
-                           f"a step of {step:.1f} m in {dt:.2f} s is faster than "
-                           f"{p.max_speed:g} m/s: replaced by the speed limit")
+                self.ctx.warn_once(msg.t, "odometry_too_fast",
+                                   f"a step of {step:.1f} m in {dt:.2f} s is faster than "
+                                   f"{p.odometry.max_speed:g} m/s: replaced by the speed limit",
+                                   agent=msg.agent)
                 self.gen.add_relative_position(
                     key, prev.key, np.zeros(3),
-                    np.diag([(p.max_speed * dt) ** 2] * 2 + [0.25]))
+                    np.diag([(p.odometry.max_speed * dt) ** 2] * 2 + [0.25]))
             else:
-                extra = (p.odometry_noise_per_m * step) ** 2
+                extra = (p.odometry.noise_per_m * step) ** 2
                 cov = cov + np.diag([extra, extra, 0.0]) + np.eye(3) * 1e-6
                 if heading is None:
                     self.gen.add_relative_position(key, prev.key, delta, cov)
@@ -270,21 +195,21 @@ class BreadcrumbGen(Estimator):
 
     def _first_state(self, msg: Odometry, st: _Agent, rot: np.ndarray) -> None:
         p = self.params
-        start = p.start_positions.get(msg.agent)
+        start = p.start.pose_of(msg.agent)[0] if p.start.mode == "pose" else None
         if start is None:
             start = rot @ (np.asarray(msg.position, float) - np.asarray(msg.delta, float))
         start = np.asarray(start, float)
         key = f"{msg.agent}@start"
         self.gen.add_node(key)
-        base = self.gen.estimate(p.base_id)
-        self.gen.add_relative_position(key, p.base_id, start - base,
-                                       np.diag([p.start_sigma ** 2] * 2 + [0.1 ** 2]))
+        base = self.gen.estimate(p.base.id)
+        self.gen.add_relative_position(key, p.base.id, start - base,
+                                       np.diag([p.start.sigma_position ** 2] * 2 + [0.1 ** 2]))
         heading = None
-        if p.heading_states:
+        if p.heading.enabled:
             heading = f"{key}/heading"
             self.gen.add_node(heading)
             self.gen.add_linear([heading], np.eye(3), np.diag(
-                [p.heading_sigma ** 2, p.heading_rate_sigma ** 2, p.turn_scale_sigma ** 2]),
+                [p.start.sigma_heading ** 2, p.heading.rate_sigma ** 2, p.heading.turn_scale_sigma ** 2]),
                 np.zeros(3))
         st.states.append(_State(key, msg.t_start, 0.0, heading))
 
@@ -303,8 +228,8 @@ class BreadcrumbGen(Estimator):
         dtheta = wrap_angle(float(msg.dheading))
         F = np.array([[1.0, dt, dtheta], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
         q = np.diag([max(float(np.asarray(msg.cov)[3, 3]), 1e-10),
-                     max(p.heading_rate_walk ** 2 * dt, 1e-14),
-                     max(p.turn_scale_walk ** 2, 1e-14)])
+                     max(p.heading.rate_walk ** 2 * dt, 1e-14),
+                     max(p.heading.turn_scale_walk ** 2, 1e-14)])
         self.gen.add_linear([node, prev.heading], np.hstack([np.eye(3), -F]), q, np.zeros(3))
         return node
 
@@ -319,11 +244,11 @@ class BreadcrumbGen(Estimator):
         fixed it and its odometry has been re-linearised.
         """
         p = self.params
-        while len(st.states) > p.window:
+        while len(st.states) > p.graph.window:
             old = st.states[0]
-            if (old.heading is not None and len(st.states) <= p.window_max
+            if (old.heading is not None and len(st.states) <= p.graph.window_max
                     and self.gen.covariances_of([old.heading])[0, 0, 0]
-                    > p.settle_heading_sigma ** 2):
+                    > p.graph.settle_heading_sigma ** 2):
                 self.ctx.count("states_kept_unsettled")
                 return
             st.states.popleft()
@@ -335,9 +260,9 @@ class BreadcrumbGen(Estimator):
     def _radio(self, msg: Range) -> None:
         p = self.params
         if msg.method == "rssi_encounter":
-            if not p.use_encounters:
+            if not p.radio.use_encounters:
                 return
-        elif not p.use_ranges:
+        elif not p.radio.use_ranges:
             return
         if not (math.isfinite(msg.range_m) and msg.range_m >= 0 and math.isfinite(msg.sigma_m)
                 and msg.sigma_m > 0):
@@ -368,9 +293,10 @@ class BreadcrumbGen(Estimator):
         if not st.states:
             if final and st.pending:  # no usable odometry ever came: say so, never silently
                 self.ctx.count("events_without_odometry", len(st.pending))
-                self._warn(agent, st.pending[-1].t, "no_odometry",
-                           f"{agent}: {len(st.pending)} radio/drop event(s) unused: this "
-                           "firefighter has no usable odometry to place them on")
+                self.ctx.warn_once(st.pending[-1].t, "no_odometry",
+                                   f"{agent}: {len(st.pending)} radio/drop event(s) unused: "
+                                   "this firefighter has no usable odometry to place them on",
+                                   agent=agent)
                 st.pending = []
             return
         t_last = st.states[-1].t
@@ -388,22 +314,22 @@ class BreadcrumbGen(Estimator):
     def _state_at(self, st: _Agent, t: float) -> _State | None:
         """The state nearest ``t``, or None when it is more than ``time_match`` away."""
         best = _nearest_state(st, t)
-        return best if abs(best.t - t) <= self.params.time_match else None
+        return best if abs(best.t - t) <= self.params.radio.time_match else None
 
     def _node_of(self, node: str, t: float) -> tuple[str, float, float] | None:
         """(graph node, antenna height, extra horizontal variance) of a radio node at ``t``."""
         p = self.params
-        if node == p.base_id:
+        if node == p.base.id:
             return node, 0.0, 0.0
         if node in self._crumbs:
-            return self._crumbs[node], p.breadcrumb_antenna_height, 0.0
+            return self._crumbs[node], p.breadcrumbs.antenna_height, 0.0
         st = self._agents.get(node)
         if st is None or not st.states:
             return None
         s = self._state_at(st, t)
         if s is None:
             return None
-        return s.key, p.agent_antenna_height, (s.speed * (s.t - t)) ** 2
+        return s.key, p.radio.agent_antenna_height, (s.speed * (s.t - t)) ** 2
 
     def _apply_radio(self, msg: Range, agent: str, st: _Agent) -> None:
         p = self.params
@@ -416,10 +342,10 @@ class BreadcrumbGen(Estimator):
             self._encounter(msg, a, b)
             return
         other = msg.b if msg.a == agent else msg.a
-        if msg.t - st.last_range.get(other, -math.inf) < p.range_period:
+        if msg.t - st.last_range.get(other, -math.inf) < p.radio.period:
             self.ctx.count("range_thinned")
             return
-        if msg.range_m > p.max_range_m:
+        if msg.range_m > p.radio.max_range:
             self.ctx.count("range_too_long")
             return
         st.last_range[other] = msg.t
@@ -437,13 +363,13 @@ class BreadcrumbGen(Estimator):
 
     def _gate_position(self, na: str, nb: str, zeta: np.ndarray, cov: np.ndarray,
                        what: str) -> bool:
-        """§IV-F: drop a relative position whose innovation is beyond ``range_gate``."""
+        """§IV-F: drop a relative position whose innovation is beyond ``radio.gate``."""
         x = self.gen.estimates_of([na, nb])
         joint = self._relative_cov(na, nb)
         innov = zeta - (x[0] - x[1])
         S = joint[:2, :2] + cov[:2, :2]
         m2 = float(innov[:2] @ np.linalg.solve(S, innov[:2]))
-        if m2 > self.params.range_gate ** 2 * 2:
+        if m2 > self.params.radio.gate ** 2 * 2:
             self.ctx.count(f"{what}_outliers")
             return False
         return True
@@ -468,7 +394,7 @@ class BreadcrumbGen(Estimator):
         pred = float(np.linalg.norm(diff))
         rel = self._relative_cov(na, nb)
         spread = math.sqrt(max(rel[0, 0] + rel[1, 1], 0.0))
-        if msg.range_m < p.near_range_m or pred < spread:
+        if msg.range_m < p.radio.near_range or pred < spread:
             # the direction is meaningless here: "within r of each other"
             horiz = max(msg.range_m ** 2 - (ha - hb) ** 2, 0.0)
             v = horiz / 2.0 + var
@@ -482,11 +408,11 @@ class BreadcrumbGen(Estimator):
         innov = msg.range_m - pred
         S = float(h @ rel @ h) + var
         z = abs(innov) / math.sqrt(S)
-        if z > p.range_gate:
+        if z > p.radio.gate:
             self.ctx.count("range_outliers")
             return
-        if z > p.range_weaken:                          # §IV-F: weaken a noisy one
-            var *= (z / p.range_weaken) ** 2
+        if z > p.radio.weaken:                          # §IV-F: weaken a noisy one
+            var *= (z / p.radio.weaken) ** 2
             self.ctx.count("ranges_weakened")
         self.gen.add_range(na, nb, msg.range_m, var, offset=off)
         self.ctx.count("ranges_used")
@@ -496,24 +422,24 @@ class BreadcrumbGen(Estimator):
         """Between two fixed nodes: one edge from the median of ``static_samples`` readings
         (their shadowing is fixed, so more readings would not add information)."""
         p = self.params
-        fixed = [n for n in (msg.a, msg.b) if n == p.base_id or n in self._crumbs]
+        fixed = [n for n in (msg.a, msg.b) if n == p.base.id or n in self._crumbs]
         if len(fixed) < 2:
             self.ctx.count("radio_unmatched")
             return
         na, nb = self._crumbs.get(msg.a, msg.a), self._crumbs.get(msg.b, msg.b)
         pair = tuple(sorted((na, nb)))
         got = self._static.setdefault(pair, [])
-        if len(got) >= p.static_samples:
+        if len(got) >= p.radio.static_samples:
             return
         got.append(msg.range_m)
-        if len(got) < p.static_samples:
+        if len(got) < p.radio.static_samples:
             return
         r = float(np.median(got))
-        if r > p.max_range_m or not (self.gen.is_localised(na) and self.gen.is_localised(nb)):
+        if r > p.radio.max_range or not (self.gen.is_localised(na) and self.gen.is_localised(nb)):
             return
         sigma = msg.sigma_m * r / max(msg.range_m, 1e-6)
-        ha = 0.0 if na == p.base_id else p.breadcrumb_antenna_height
-        hb = 0.0 if nb == p.base_id else p.breadcrumb_antenna_height
+        ha = 0.0 if na == p.base.id else p.breadcrumbs.antenna_height
+        hb = 0.0 if nb == p.base.id else p.breadcrumbs.antenna_height
         fake = Range(t=msg.t, a=na, b=nb, range_m=r, sigma_m=sigma, method="rssi")
         with self.gen.batch():
             self._range(fake, (na, ha, 0.0), (nb, hb, 0.0))
@@ -525,7 +451,7 @@ class BreadcrumbGen(Estimator):
         if s is None:
             s = _nearest_state(st, msg.t)
             self.ctx.count("drop_time_unmatched")
-        v = self.params.drop_sigma ** 2 + (s.speed * (s.t - msg.t)) ** 2
+        v = self.params.breadcrumbs.drop_sigma ** 2 + (s.speed * (s.t - msg.t)) ** 2
         self.gen.add_node(msg.node_id)
         self.gen.add_relative_position(msg.node_id, s.key, np.zeros(3), np.diag([v, v, 0.05]))
         self._crumbs[msg.node_id] = msg.node_id
@@ -536,7 +462,7 @@ class BreadcrumbGen(Estimator):
         old = self._crumbs[msg.node_id]
         self._kicks[msg.node_id] = self._kicks.get(msg.node_id, 0) + 1
         new = f"{msg.node_id}#{self._kicks[msg.node_id]}"
-        k = self.params.kick_sigma ** 2
+        k = self.params.breadcrumbs.kick_sigma ** 2
         self.gen.add_node(new)
         self.gen.add_relative_position(new, old, np.zeros(3), np.diag([k, k, 0.05]))
         self._crumbs[msg.node_id] = new
@@ -554,7 +480,7 @@ class BreadcrumbGen(Estimator):
         c = self.gen.covariances_of(nodes)
         cov = np.zeros((4, 4))
         cov[:3, :3] = c[0]
-        heading = msg.heading + self.params.odometry_heading.get(msg.agent, 0.0)
+        heading = msg.heading + self.params.odometry.rotation.get(msg.agent, 0.0)
         if state.heading is None:
             cov[3, 3] = st.heading_var
         else:
@@ -594,34 +520,6 @@ class BreadcrumbGen(Estimator):
         self._publish_crumbs(t, list(crumbs), crumbs)
         self.ctx.count("graph_rebuilds", self.gen.solver.rebuilds)
 
-    def _warn(self, agent: str, t: float, code: str, text: str) -> None:
-        st = self._agent(agent)
-        if code not in st.warned:
-            st.warned.add(code)
-            self.ctx.diagnose(t, "warning", code, text, agent=agent)
-
 
 def _nearest_state(st: _Agent, t: float) -> _State:
     return min(st.states, key=lambda s: abs(s.t - t))
-
-
-
-
-def _rotation(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _odometry_problem(msg: Odometry) -> str:
-    """Why an Odometry message cannot be used ('' when it can)."""
-    delta = np.asarray(msg.delta, float)
-    if delta.shape != (3,) or not np.all(np.isfinite(delta)):
-        return "delta is not 3 finite numbers"
-    if not (math.isfinite(msg.t) and math.isfinite(msg.t_start) and msg.t_start <= msg.t):
-        return "bad step times"
-    cov = np.asarray(msg.cov, float)
-    if not np.all(np.isfinite(cov)) or np.any(np.diag(cov) < 0):
-        return "covariance not finite or negative"
-    if not (math.isfinite(msg.heading) and np.all(np.isfinite(msg.position))):
-        return "non-finite absolute pose"
-    return ""

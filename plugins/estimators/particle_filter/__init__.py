@@ -1,10 +1,13 @@
-"""Map-aided particle filter on INS odometry (search-pattern paper §IV-E).
+"""Map-aided particle filter on INS odometry (search-pattern paper §IV-E): the
+``particle_filter`` estimator.
 
-Its constraints implement the particles capability
+Modules: :mod:`.estimator` (the plugin), :mod:`.params`, :mod:`.initialisation` (initial
+clouds), :mod:`.motion` (time update), :mod:`.stairs` (floor changes), :mod:`.particles`
+(summary, weights), :mod:`.resampling`, :mod:`.map_error` (§V-E monitor). Its
+constraints implement the particles capability
 (:mod:`firenav_framework.capabilities.particles`).
 """
-from .estimator import ParticleFilter
+from .estimator import ParticleFilterEstimator
+from .params import ParticleFilterParams
 
-PLUGINS = [ParticleFilter]
-
-__all__ = ["ParticleFilter", "PLUGINS"]
+__all__ = ["ParticleFilterEstimator", "ParticleFilterParams"]

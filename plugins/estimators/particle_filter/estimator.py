@@ -1,26 +1,27 @@
 """The ``particle_filter`` estimator: map-aided INS odometry (search-pattern paper §IV-E).
 
 Per firefighter, once per odometry update (the paper downsamples odometry to 2 Hz,
-§V-B; faster odometry is summed into increments of at least ``update_interval_s``):
+§V-B; faster odometry is summed into increments of at least ``update_interval``):
 
 1. time update: move every particle by the increment rotated by its own frame
    rotation, add noise (:mod:`.motion`; none over 'still' increments with
-   ``noise_while_still: false``), turn each frame rotation by its drift rate
-   (``yaw_rate_sigma_dps`` > 0, for an INS with an uncalibrated yaw gyro bias), change
+   ``motion.noise_while_still: false``), turn each frame rotation by its drift rate
+   (``motion.yaw_rate_sigma`` > 0, for an INS with an uncalibrated yaw gyro bias), change
    floors on stairs (:mod:`.stairs`);
 2. measurement updates: every attached constraint adds log-weights
    (:mod:`.constraint`), e.g. ``wall_crossing`` and ``search_pattern_icp`` (eq. 3);
-3. particles removed by a constraint or with a weight below epsilon = weight_floor/N
-   are replaced by copies of the others (§IV-E); constraints may then replace the
-   lowest-weight particles (pseudo-observation resampling);
+3. particles removed by a constraint or with a weight below epsilon =
+   ``resampling.weight_floor``/N are replaced by copies of the others (§IV-E);
+   constraints may then replace the lowest-weight particles (pseudo-observation
+   resampling, weighted as ``injection`` says);
 4. resampling (systematic by default) when the effective sample size drops below
-   ``resample_below_ess`` * N (1 = every update, 0 = never);
+   ``resampling.below_ess`` * N (1 = every update, 0 = never);
 5. output: the weighted mean pose (the MMSE estimate of §V-B) with its covariance,
    and the map-error monitor of §V-E (:mod:`.map_error`).
 
 Uncertainty signal: the published pose's covariance; ``cov[0,0] + cov[1,1]`` is the
 paper's "variance summed over both horizontal directions" (§V-E). While it exceeds
-``map_error_variance_m2`` the pose has ``trusted=False``; a rise above it after the
+``map_error.variance`` the pose has ``trusted=False``; a rise above it after the
 filter had converged raises the ``map_error`` warning diagnostic, cleared
 (``active=False``) when the filter converges again.
 """
@@ -30,90 +31,24 @@ import math
 import zlib
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Literal
-
 import numpy as np
 
-from firenav_framework import (Estimator, GroundTruth, Odometry, Params, PerAgent,
-                               PoseEstimate, param)
+from firenav_framework import Estimator, GroundTruth, Odometry, PerAgent, PoseEstimate
 from firenav_framework.capabilities.odometry_history import OdometryHistory
 from firenav_framework.capabilities.particles import ParticleConstraint, ParticleStep, Particles
 from firenav_framework.geometry import wrap_angles
 
 from .initialisation import around_pose, near_point, uniform_free_space
 from .map_error import SpreadMonitor
-from .motion import MotionNoise, propagate
+from ..odometry_input import accept_odometry
+from ..start_pose import entrance_of
+from .motion import propagate
+from .params import ParticleFilterParams
 from .particles import ParticleSummary, local_log_weight, normalise_log_weights
-from .resampling import Resampler, replace_removed, resample_indices
+from .resampling import replace_removed, resample_indices
 from .stairs import apply_stairs
 
-__all__ = ["ParticleFilter"]
-
-
-class ParticleFilterParams(Params):
-    particles: int = param(500, gt=0, description="particles per firefighter (N_p, §V-B)")
-    init: Literal["unknown", "known", "entrance", "truth"] = param(
-        "unknown", description="initial state: unknown (spread over the free space, all "
-        "headings), known (`start`), entrance (near a building entrance), truth (the "
-        "agent's first ground-truth pose: evaluation of the known-start case only)")
-    start: tuple[float, float, float] | None = param(
-        None, description="init=known: start pose [x m, y m, walking heading deg]")
-    start_floor: int = param(0, ge=0, description="init=known: start floor index")
-    start_sigma_m: float = param(0.1, unit="m", ge=0, description="init=known/truth: position spread")
-    start_heading_sigma_deg: float = param(5.0, unit="deg", ge=0,
-                                           description="init=known/truth: heading spread")
-    entrance: str | None = param(None, description="init=entrance: entrance id (default: the first)")
-    entrance_radius_m: float = param(1.5, unit="m", gt=0,
-                                     description="init=entrance: particles within this radius")
-    entrance_heading_sigma_deg: float = param(30.0, unit="deg", ge=0,
-                                              description="init=entrance: heading spread about "
-                                              "the entrance's inward heading")
-    position_noise_m: float = param(0.12, unit="m", ge=0,
-                                    description="time-update position noise per axis per "
-                                    "noise_period_s (§V-B)")
-    noise_period_s: float = param(0.5, unit="s", gt=0,
-                                  description="update period the noise figures refer to (2 Hz in §V-B)")
-    heading_noise_deg_per_m: float = param(2.0, unit="deg/m", ge=0,
-                                           description="time-update heading noise per metre walked (§V-B)")
-    noise_while_still: bool = param(True, description="add the time-update noise also over "
-                                    "odometry increments labelled 'still' (the paper adds it "
-                                    "at every 2 Hz update); false: a foot at rest, where a "
-                                    "ZUPT INS does not drift, does not spread the particles")
-    step_scale_sigma: float = param(0.0, ge=0, lt=0.5,
-                                    description="spread of a per-particle step-length scale "
-                                    "around 1 (0 disables the scale state)")
-    yaw_rate_sigma_dps: float = param(0.0, unit="deg/s", ge=0,
-                                      description="spread of a per-particle drift rate of the "
-                                      "INS heading, for odometry whose yaw gyro bias was not "
-                                      "calibrated (e.g. an IMU's turn-on bias; 0 disables)")
-    weight_floor: float = param(0.01, ge=0, lt=1,
-                                description="particles with weight below weight_floor/N are "
-                                "replaced (epsilon = 0.01/N_p, §V-B)")
-    resampling: Resampler = param("systematic", description="resampling scheme")
-    resample_below_ess: float = param(0.5, ge=0, le=1,
-                                      description="resample when ESS < this * N (1 = every "
-                                      "update, 0 = never)")
-    update_interval_s: float = param(0.5, unit="s", ge=0,
-                                     description="odometry is summed to at least this interval "
-                                     "per update (2 Hz in §V-B)")
-    offset_window_m: float = param(20.0, unit="m", gt=0,
-                                   description="path length over which the IMU-yaw to walking-"
-                                   "direction offset is estimated (footnote 4)")
-    map_error_variance_m2: float = param(3.0, unit="m^2", gt=0,
-                                         description="var_x + var_y above which the estimate "
-                                         "is not trusted / a map error is suspected (§V-E)")
-    map_error_clear_m2: float | None = param(None, unit="m^2", gt=0,
-                                             description="var_x + var_y below which a map error "
-                                             "clears (default: the same threshold)")
-    injected_weight: Literal["neighbours", "uniform"] = param(
-        "neighbours", description="weight of particles a constraint injects: the kernel-"
-        "weighted mean weight of the particles already near them (neighbours), or 1/N each "
-        "(uniform)")
-    injected_kernel_m: float = param(1.0, unit="m", gt=0,
-                                     description="injected_weight=neighbours: kernel width per axis")
-    injected_kernel_deg: float = param(30.0, unit="deg", gt=0,
-                                       description="injected_weight=neighbours: kernel width on heading")
-    seed: int = param(0, description="random seed (combined with the agent name)")
+__all__ = ["ParticleFilterEstimator"]
 
 
 @dataclass
@@ -138,13 +73,13 @@ class _AgentState:
     pending: _Pending | None = None
     last_t: float = -math.inf
     walk_offset: float = 0.0
-    #: recent ground truth while waiting to initialise from it (init: truth)
+    #: recent ground truth while waiting to initialise from it (start mode truth)
     truth: deque = field(default_factory=lambda: deque(maxlen=1024))
     #: var_x + var_y of the cloud after the last update [m^2]
     spread_m2: float = math.inf
 
 
-class ParticleFilter(Estimator):
+class ParticleFilterEstimator(Estimator):
     """Map-aided particle filter on INS odometry with pluggable constraints (walls, search patterns)."""
 
     name = "particle_filter"
@@ -156,21 +91,17 @@ class ParticleFilter(Estimator):
 
     def __init__(self, params: ParticleFilterParams, ctx):
         super().__init__(params, ctx)
-        if params.init == "known" and params.start is None:
-            raise ValueError("init: known needs start: [x, y, heading_deg]")
-        self.noise = MotionNoise(position_sigma_m=params.position_noise_m,
-                                 period_s=params.noise_period_s,
-                                 heading_sigma_rad_per_m=math.radians(params.heading_noise_deg_per_m))
+        self.noise = params.motion.noise()
         self.state: PerAgent[_AgentState] = PerAgent(self._new_agent)
 
     # ------------------------------------------------------------------ lifecycle
     def _new_agent(self, agent: str) -> _AgentState:
         p = self.params
         seed = np.random.SeedSequence([p.seed, zlib.crc32(agent.encode())])
-        keep = max([p.offset_window_m] + [getattr(c, "history_m", 0.0) for c in self.constraints])
-        clear = p.map_error_clear_m2 if p.map_error_clear_m2 is not None else p.map_error_variance_m2
+        keep = max([p.offset_window] + [getattr(c, "history_m", 0.0) for c in self.constraints])
+        clear = p.map_error.clear if p.map_error.clear is not None else p.map_error.variance
         return _AgentState(rng=np.random.default_rng(seed), history=OdometryHistory(2 * keep + 10),
-                           monitor=SpreadMonitor(p.map_error_variance_m2, clear))
+                           monitor=SpreadMonitor(p.map_error.variance, clear))
 
     def reset(self, agent: str) -> None:
         self.state.reset(agent)
@@ -185,7 +116,7 @@ class ParticleFilter(Estimator):
     # ------------------------------------------------------------------ input
     def handle(self, stream: str, msg) -> None:
         if isinstance(msg, GroundTruth):
-            if self.params.init == "truth" and self.state[msg.agent].particles is None:
+            if self.params.start.mode == "truth" and self.state[msg.agent].particles is None:
                 self.state[msg.agent].truth.append(msg)
             return
         if isinstance(msg, Odometry):
@@ -193,16 +124,9 @@ class ParticleFilter(Estimator):
 
     def _odometry(self, msg: Odometry) -> None:
         st = self.state[msg.agent]
+        if not accept_odometry(self.ctx, msg, st.last_t):
+            return
         delta = np.asarray(msg.delta, dtype=float)
-        pos = np.asarray(msg.position, dtype=float)
-        if delta.shape != (3,) or pos.shape != (3,) or not (
-                np.all(np.isfinite(delta)) and np.all(np.isfinite(pos))
-                and math.isfinite(msg.heading) and math.isfinite(msg.dheading)):
-            self.ctx.count("bad_odometry_skipped")
-            return
-        if msg.t <= st.last_t:
-            self.ctx.count("odometry_out_of_order_skipped")
-            return
         st.last_t = msg.t
         if st.particles is None:
             if not self._initialise(msg, st):
@@ -213,25 +137,27 @@ class ParticleFilter(Estimator):
             st.pending.delta += delta
             st.pending.dheading += msg.dheading
             st.pending.msg = msg
-        if msg.motion == "still" and not self.params.noise_while_still:
+        if msg.motion == "still" and not self.params.motion.noise_while_still:
             st.pending.quiet_s += msg.t - msg.t_start
-        if msg.t - st.pending.t_start >= self.params.update_interval_s:
+        if msg.t - st.pending.t_start >= self.params.update_interval:
             self._update(msg.agent, st)
 
     # ------------------------------------------------------------------ initialisation
     def _initialise(self, msg: Odometry, st: _AgentState) -> bool:
         """Create the particles at the pose *before* the first increment."""
-        p = self.params
+        p, start = self.params, self.params.start
         building = self.ctx.building
         n = p.particles
         rng = st.rng
-        if p.init == "unknown":
+        if start.mode == "unknown":
             xy, heading, floor = uniform_free_space(n, building, rng)
-        elif p.init == "known":
-            x, y, hdg = p.start
-            xy, heading, floor = around_pose(n, np.array([x, y]), math.radians(hdg), p.start_floor,
-                                             p.start_sigma_m, math.radians(p.start_heading_sigma_deg), rng)
-        elif p.init == "truth":
+        elif start.mode == "pose":
+            position, hdg = start.pose_of(msg.agent)
+            floor = start.floor if start.floor is not None else int(
+                building.floor_of_z(position[2]))
+            xy, heading, floor = around_pose(n, np.asarray(position[:2]), hdg, floor,
+                                             start.sigma_position, start.sigma_heading, rng)
+        elif start.mode == "truth":
             if not st.truth:
                 self.ctx.count("waiting_for_truth_to_initialise")
                 return False
@@ -241,22 +167,16 @@ class ParticleFilter(Estimator):
             xy, heading, floor = around_pose(
                 n, tr.position, tr.heading if math.isfinite(tr.heading) else None,
                 tr.floor if tr.floor is not None else int(building.floor_of_z(tr.position[2])),
-                p.start_sigma_m, math.radians(p.start_heading_sigma_deg), rng)
+                start.sigma_position, start.sigma_heading, rng)
         else:
-            entrances = building.entrances
-            if p.entrance is not None:
-                entrances = [e for e in entrances if e.id == p.entrance]
-            if not entrances:
-                raise ValueError(f"init: entrance, but building {building.name!r} has no "
-                                 f"entrance{' ' + repr(p.entrance) if p.entrance else ''}")
-            e = entrances[0]
+            e = entrance_of(building, start.entrance)
             xy, heading, floor = near_point(n, building.floors[e.floor], e.position,
-                                            p.entrance_radius_m, e.heading,
-                                            math.radians(p.entrance_heading_sigma_deg), rng)
+                                            start.entrance_radius, e.heading,
+                                            start.sigma_heading, rng)
         ins_heading0 = msg.heading - msg.dheading
-        scale = 1.0 + p.step_scale_sigma * rng.standard_normal(n) if p.step_scale_sigma else 1.0
-        rate = (math.radians(p.yaw_rate_sigma_dps) * rng.standard_normal(n)
-                if p.yaw_rate_sigma_dps else 0.0)
+        m = p.motion
+        scale = 1.0 + m.step_scale_sigma * rng.standard_normal(n) if m.step_scale_sigma else 1.0
+        rate = m.yaw_rate_sigma * rng.standard_normal(n) if m.yaw_rate_sigma else 0.0
         st.particles = Particles.create(xy, wrap_angles(heading - ins_heading0), floor, scale, rate)
         st.history.append(msg.t_start, np.asarray(msg.position, float) - msg.delta, ins_heading0)
         return True
@@ -282,8 +202,9 @@ class ParticleFilter(Estimator):
                             spread_m2=st.spread_m2)
         self._measurement_updates(step, before)
         self._replace_by_constraints(step)
-        if len(p) and p.effective_sample_size() < self.params.resample_below_ess * len(p):
-            idx = resample_indices(p.weights, len(p), rng, self.params.resampling)
+        resampling = self.params.resampling
+        if len(p) and p.effective_sample_size() < resampling.below_ess * len(p):
+            idx = resample_indices(p.weights, len(p), rng, resampling.scheme)
             st.particles = p = p.take(idx)
             p.logw[:] = -math.log(len(p))
             self.ctx.count("resampled")
@@ -291,7 +212,7 @@ class ParticleFilter(Estimator):
 
     def _update_offset(self, st: _AgentState) -> None:
         """Footnote 4: re-estimate the IMU-yaw to walking-direction offset."""
-        est = st.history.walk_offset(self.params.offset_window_m)
+        est = st.history.walk_offset(self.params.offset_window)
         if est is None:
             return
         st.walk_offset = est
@@ -321,7 +242,7 @@ class ParticleFilter(Estimator):
                               agent=step.agent)
             return
         p.logw = logw
-        eps = self.params.weight_floor / len(p)
+        eps = self.params.resampling.weight_floor / len(p)
         removed = ~np.isfinite(logw) | (logw < math.log(eps) if eps > 0 else False)
         self.ctx.count("replaced_particles", replace_removed(p, removed, step.rng))
 
@@ -336,13 +257,14 @@ class ParticleFilter(Estimator):
             k = min(len(new), len(p))
             worst = np.argpartition(p.logw, k - 1)[:k] if k < len(p) else np.arange(len(p))
             new = new.take(np.arange(k))
-            if self.params.injected_weight == "uniform":
+            inject = self.params.injection
+            if inject.weight == "uniform":
                 new.logw = np.full(k, -math.log(len(p)))
             else:
                 new.logw = local_log_weight(p, new.xy, new.yaw, new.floor,
-                                            self.params.injected_kernel_m,
-                                            math.radians(self.params.injected_kernel_deg))
-                new.logw[~np.isfinite(new.logw)] = math.log(self.params.weight_floor / len(p)) - 1.0
+                                            inject.kernel_position, inject.kernel_heading)
+                floor = self.params.resampling.weight_floor / len(p)
+                new.logw[~np.isfinite(new.logw)] = math.log(floor) - 1.0
             p.put(worst, new)
             normalise_log_weights(p.logw)
             self.ctx.count("injected_particles", k)

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .filter import wrap
+from firenav_framework.geometry import wrap_angle
 
 __all__ = ["DoorHeadingConfig", "HeadingWindow", "HeadingMeasurement", "door_heading_measurement"]
 
@@ -91,10 +91,10 @@ def door_heading_measurement(window: HeadingWindow, dtheta_hat: float,
     spread2 = -2.0 * math.log(max(r, 1e-12))           # circular variance [rad^2]
     corrected = mean_mems + dtheta_hat
     crossing = window.heading
-    if window.ambiguous and abs(wrap(crossing + math.pi - corrected)) < abs(wrap(crossing - corrected)):
-        crossing = wrap(crossing + math.pi)
-    z = wrap(crossing - mean_mems)
-    d = wrap(crossing - corrected)
+    if window.ambiguous and abs(wrap_angle(crossing + math.pi - corrected)) < abs(wrap_angle(crossing - corrected)):
+        crossing = wrap_angle(crossing + math.pi)
+    z = wrap_angle(crossing - mean_mems)
+    d = wrap_angle(crossing - corrected)
     var = (cfg.sigma ** 2 + spread2 / len(window.directions)) * math.exp(
         min((d / cfg.discrepancy_scale) ** 2, 700.0))
     return HeadingMeasurement(z=z, var=var, discrepancy=d, crossing=crossing,

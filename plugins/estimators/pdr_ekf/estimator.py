@@ -35,19 +35,22 @@ import numpy as np
 from firenav_framework import (Estimator, Odometry, PerAgent, PoseEstimate, TagDeployment,
                                TagDetection)
 from firenav_framework.building.tags import TagDatabase, TagSite
+from firenav_framework.geometry import rot2, wrap_angle
 from firenav_framework.messages import Message, Tick
 
+from ..odometry_input import accept_odometry
+from ..start_pose import entrance_of, entrance_start
 from .door_heading import HeadingWindow, door_heading_measurement
-from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter, rot2, wrap
+from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter
 from .flight_tracker import FlightTracker
 from .gait import STAIR_GAITS, GaitClassifier, GaitConfig, StrideGait, count_stairs
 from .height import Flight, StairFlights, snap_levels
 from .history import StrideHistory
 from .params import PdrEkfParams
 
-__all__ = ["PdrEkf"]
+__all__ = ["PdrEkfEstimator"]
 
-#: Odometry motion labels -> gait classes (``gait_source: odometry``).
+#: Odometry motion labels -> gait classes (``gait.source: odometry``).
 MOTION_GAITS = {"walk": "FW", "crawl": "FW", "stairs_up": "SC", "stairs_down": "SDF",
                 "stairs_down_backward": "SDB", "still": "still"}
 #: Height uncertainty after a snap to a floor level or landing: 1 sigma [m].
@@ -84,10 +87,9 @@ class _Agent:
     window: HeadingWindow | None = None
     window_ready: bool = False
     last_tag: tuple[str, float] | None = None
-    warned: set = field(default_factory=set)
 
 
-class PdrEkf(Estimator):
+class PdrEkfEstimator(Estimator):
     """RFID/MEMS extended Kalman filter: [E, N, Z, step scale, heading perturbation], tags on doors."""
 
     name = "pdr_ekf"
@@ -104,25 +106,24 @@ class PdrEkf(Estimator):
         super().__init__(params, ctx)
         self.state: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
         self._seq = itertools.count()
-        self._unknown_tags: set[str] = set()
         self.tags: TagDatabase | None = None
         self._stairs: StairFlights | None = None
         self._levels = np.zeros(0)
-        self._door = params.door_config()
+        self._door = params.door_heading.config()
 
     def start(self) -> None:
         building = self.ctx.building
         self.tags = TagDatabase(building)
-        for tag_id, site_id in self.params.surveyed_tags.items():
+        for tag_id, site_id in self.params.rfid.surveyed.items():
             try:
                 self.tags.assign(tag_id, site_id)
             except KeyError as exc:
                 sites = ", ".join(s.id for s in self.tags.sites[:8])
-                raise ValueError(f"surveyed_tags: {exc.args[0]} (sites look like: {sites}, ...)") from None
-        self._stairs = StairFlights(building, self.params.stair_zone or 1.0)
+                raise ValueError(f"rfid.surveyed: {exc.args[0]} (sites look like: {sites}, ...)") from None
+        self._stairs = StairFlights(building, self.params.height.stair_zone or 1.0)
         self._levels = snap_levels(building)
-        if self.params.alignment == "entrance":
-            self._entrance()   # fail now, clearly, if there is none
+        if self.params.start.mode == "entrance":
+            entrance_of(building, self.params.start.entrance)   # fail now, clearly, if none
 
     def reset(self, agent: str) -> None:
         self.state.reset(agent)
@@ -135,7 +136,7 @@ class PdrEkf(Estimator):
         elif isinstance(msg, Odometry):
             self._odometry(msg)
         elif isinstance(msg, (TagDetection, TagDeployment)):
-            if not self.params.rfid:
+            if not self.params.rfid.enabled:
                 return
             if not msg.agent or not math.isfinite(msg.t):
                 self.ctx.count("bad_tag_events")
@@ -157,7 +158,7 @@ class PdrEkf(Estimator):
         if not self._accept(st, msg):
             return
         if st.filt is None:
-            if self.params.alignment != "none" and _is_still(msg):
+            if self.params.start.mode != "unknown" and _is_still(msg):
                 # standing at the start: the INS yaw may drift, so the start heading
                 # belongs to the moment the walk begins
                 self.ctx.count("strides_before_start")
@@ -168,22 +169,16 @@ class PdrEkf(Estimator):
             self._cycle(msg.agent, st, msg.t)
 
     def _accept(self, st: _Agent, msg: Odometry) -> bool:
-        """Whether a stride is usable: well-formed, from the agent's tracked device, new."""
-        problem = _odometry_problem(msg)
-        if problem:
-            self.ctx.count("bad_odometry")
-            self._warn_once(st, msg.t, msg.agent, "bad_odometry", f"odometry skipped: {problem}")
+        """Whether a stride is usable: well-formed, new, from the agent's tracked device."""
+        if not accept_odometry(self.ctx, msg, st.t_odo):
             return False
         if not st.device:
             st.device = msg.device
         elif msg.device != st.device:
             self.ctx.count("odometry_other_device")
-            self._warn_once(st, msg.t, msg.agent, "second_odometry_device",
-                            f"odometry of {msg.device} ignored: {msg.agent} is tracked with "
-                            f"{st.device}")
-            return False
-        if msg.t <= st.t_odo:
-            self.ctx.count("stale_odometry")
+            self.ctx.warn_once(msg.t, "second_odometry_device",
+                               f"odometry of {msg.device} ignored: {msg.agent} is tracked with "
+                               f"{st.device}", agent=msg.agent)
             return False
         return True
 
@@ -198,7 +193,7 @@ class PdrEkf(Estimator):
         d = R @ delta[:2]
         cov = R @ np.asarray(msg.cov, float)[:2, :2] @ R.T
         if gait.gait != "still":
-            cov = cov + np.eye(2) * max(self.params.stride_noise ** 2, MIN_STRIDE_VAR)
+            cov = cov + np.eye(2) * max(self.params.process.stride_noise ** 2, MIN_STRIDE_VAR)
             st.walk_dir = math.atan2(d[1], d[0])
         if st.flights is not None:
             label, dz, var_z, level = self._flight_height(msg.agent, st, gait, d, now, msg.t)
@@ -233,11 +228,11 @@ class PdrEkf(Estimator):
 
     def _classify(self, st: _Agent, msg: Odometry, delta: np.ndarray, foot: float,
                   now: np.ndarray) -> StrideGait:
-        near = (self.params.stair_zone is None or not len(self._stairs)
+        near = (self.params.height.stair_zone is None or not len(self._stairs)
                 or (st.flights is not None and st.flights.on_stairs)
                 or self._stairs.near(now) is not None)
         stride = st.gait.classify(delta, foot, near)
-        if self.params.gait_source == "odometry" and msg.motion in MOTION_GAITS:
+        if self.params.gait.source == "odometry" and msg.motion in MOTION_GAITS:
             return StrideGait(MOTION_GAITS[msg.motion], float(delta[2]), stride.d)
         return stride
 
@@ -258,7 +253,7 @@ class PdrEkf(Estimator):
             self.ctx.diagnose(t, "info", f"flight_{step.ended}",
                               f"{agent} {verb} flight {_flight_name(step.flight)}: height "
                               f"{step.z:.2f} m, floor {self._floor(step.z)}", agent=agent)
-        var = (step.stairs * self.params.stair_sigma) ** 2
+        var = (step.stairs * self.params.height.stair_sigma) ** 2
         return label, step.z - float(now[2]), var, step.z if step.settled else None
 
     def _counted_height(self, st: _Agent, gait: StrideGait, msg: Odometry,
@@ -267,14 +262,14 @@ class PdrEkf(Estimator):
         flights: the INS's, or the paper's counted stairs (retracted when the next stride
         does not confirm them)."""
         p = self.params
-        if p.height_source == "ins":
+        if p.height.source == "ins":
             return gait.dz, float(msg.cov[2, 2])
         dz = var = 0.0
         if gait.gait in STAIR_GAITS:
-            rise = (self._stairs.step_rise_at(now) if p.step_height_from_building
-                    else None) or p.step_height
-            n = count_stairs(gait.dz, rise, p.max_stairs_per_stride)
-            dz, var = n * rise, (n * p.stair_sigma) ** 2
+            rise = (self._stairs.step_rise_at(now) if p.height.step_height_from_building
+                    else None) or p.height.step_height
+            n = count_stairs(gait.dz, rise, p.height.max_stairs_per_stride)
+            dz, var = n * rise, (n * p.height.stair_sigma) ** 2
         counted = dz
         if gait.retract:
             dz -= st.last_dz
@@ -282,47 +277,34 @@ class PdrEkf(Estimator):
         st.last_dz = counted
         return dz, var
 
-    # -- alignment ---------------------------------------------------------------------
-    def _entrance(self):
-        building = self.ctx.building
-        if not building.entrances:
-            raise ValueError(f"building {building.name!r} has no entrance: use alignment "
-                             "'pose' with start_position/start_heading")
-        if self.params.entrance is None:
-            return building.entrances[0]
-        for e in building.entrances:
-            if e.id == self.params.entrance:
-                return e
-        raise ValueError(f"no entrance {self.params.entrance!r}; the building has "
-                         f"{', '.join(e.id for e in building.entrances)}")
-
+    # -- start -------------------------------------------------------------------------
     def _initialise(self, agent: str, st: _Agent, first: Odometry) -> None:
         """Place the odometry frame in the building (start pose, psi0) and start the filter."""
         p = self.params
         foot0 = first.heading - first.dheading
         window = None
-        if p.alignment == "none":
+        if p.start.mode == "unknown":
             start = np.asarray(first.position, float) - np.asarray(first.delta, float)
             st.psi0 = 0.0
-        elif p.alignment == "pose":
-            start = np.asarray(p.start_position, float)
-            st.psi0 = wrap(p.start_heading - foot0)
+        elif p.start.mode == "pose":
+            position, heading = p.start.pose_of(agent)
+            start = np.asarray(position, float)
+            st.psi0 = wrap_angle(heading - foot0)
         else:
-            ent = self._entrance()
-            start = np.array([*ent.position, self.ctx.building.floors[ent.floor].z])
-            st.psi0 = wrap(ent.heading - foot0)
-            if p.entrance_heading_update:
+            start, ent = entrance_start(self.ctx.building, p.start.entrance)
+            st.psi0 = wrap_angle(ent.heading - foot0)
+            if p.door_heading.at_entrance:
                 window = HeadingWindow(f"entrance {ent.id}", ent.heading, False, first.t_start)
         x0 = np.array([start[0], start[1], start[2], 1.0, 0.0])
-        P0 = np.diag([p.start_sigma ** 2, p.start_sigma ** 2, 0.05 ** 2,
-                      p.start_sigma_scale ** 2, p.start_sigma_heading ** 2])
+        P0 = np.diag([p.start.sigma_position ** 2, p.start.sigma_position ** 2, 0.05 ** 2,
+                      p.process.scale_sigma ** 2, p.start.sigma_heading ** 2])
         st.filt = PdrFilter(x0, P0)
         st.gait = GaitClassifier(p.gait_config())
-        if p.stair_zone is not None and p.height_source == "stairs" and len(self._stairs):
-            st.flights = FlightTracker(self._stairs, p.flight_config())
-        st.walk_dir = wrap(foot0 + st.psi0)
+        if p.height.stair_zone is not None and p.height.source == "stairs" and len(self._stairs):
+            st.flights = FlightTracker(self._stairs, p.height.flight_config())
+        st.walk_dir = wrap_angle(foot0 + st.psi0)
         st.t_cycle = first.t_start
-        if p.door_heading:
+        if p.door_heading.enabled:
             st.window = window
 
     # -- the synchronous update -----------------------------------------------------------
@@ -334,12 +316,12 @@ class PdrEkf(Estimator):
         p = self.params
         dt = max(0.0, t - st.t_cycle)
         st.filt.predict(st.acc_d, st.acc_dz, st.acc_cov, st.acc_var_z,
-                        var_lambda=p.scale_rw ** 2 * dt,
-                        var_dtheta=p.heading_rw ** 2 * dt + (p.heading_turn_noise * st.acc_turn) ** 2)
+                        var_lambda=p.process.scale_rw ** 2 * dt,
+                        var_dtheta=p.process.heading_rw ** 2 * dt + (p.process.heading_turn_noise * st.acc_turn) ** 2)
         st.acc_d, st.acc_cov = np.zeros(2), np.zeros((2, 2))
         st.acc_dz = st.acc_var_z = st.acc_turn = 0.0
         st.t_cycle = max(st.t_cycle, t)
-        while st.events and (st.events[0][0] <= st.t_odo or t - st.events[0][0] >= p.max_wait
+        while st.events and (st.events[0][0] <= st.t_odo or t - st.events[0][0] >= p.rfid.max_wait
                              or final):
             _, _, msg = heapq.heappop(st.events)
             if isinstance(msg, TagDeployment):
@@ -372,8 +354,8 @@ class PdrEkf(Estimator):
         why = "no tag site close enough"
         try:
             site = self.tags.associate(msg.tag_id, pos, floor,
-                                       sigma=cov + np.eye(2) * p.tag_sigma ** 2,
-                                       gate=p.associate_gate)
+                                       sigma=cov + np.eye(2) * p.rfid.sigma ** 2,
+                                       gate=p.rfid.associate_gate)
         except LookupError as exc:
             site, why = None, str(exc)
         if site is None:
@@ -388,7 +370,7 @@ class PdrEkf(Estimator):
             self.ctx.diagnose(msg.t, "info", "tag_associated",
                               f"tag {msg.tag_id} -> {site.id} (floor {site.floor}), "
                               f"{dist:.1f} m from {agent}'s estimate", agent=agent)
-        if p.correct_on_deploy:
+        if p.rfid.correct_on_deploy:
             self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=None)
         self._open_window(st, site, msg.t)
         st.last_tag = (msg.tag_id, msg.t)
@@ -396,23 +378,21 @@ class PdrEkf(Estimator):
     def _detection(self, agent: str, st: _Agent, msg: TagDetection) -> None:
         p = self.params
         if st.last_tag is not None and st.last_tag[0] == msg.tag_id \
-                and msg.t - st.last_tag[1] < p.repeat_holdoff:
+                and msg.t - st.last_tag[1] < p.rfid.repeat_holdoff:
             self.ctx.count("tag_repeats_ignored")
             return
         site = self.tags.lookup(msg.tag_id)
         if site is None:
             self.ctx.count("tags_unknown")
-            if msg.tag_id not in self._unknown_tags:
-                self._unknown_tags.add(msg.tag_id)
-                self.ctx.diagnose(msg.t, "warning", "unknown_tag",
-                                  f"{agent} read tag {msg.tag_id}, which no one deployed and "
-                                  "no survey lists: not used", agent=agent)
+            self.ctx.warn_once(msg.t, "unknown_tag", f"{agent} read tag {msg.tag_id}, which no "
+                               "one deployed and no survey lists: not used", agent=agent,
+                               key=msg.tag_id)
             return
         if not st.history.covers(msg.t) and math.isfinite(st.t_odo) and msg.t < st.t_odo:
             self.ctx.count("tag_events_too_old")
             return
         _, _, since = self._position_at(st, msg.t)
-        if self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=p.tag_gate):
+        if self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=p.rfid.gate):
             self._open_window(st, site, msg.t)
             st.last_tag = (msg.tag_id, msg.t)
 
@@ -422,10 +402,10 @@ class PdrEkf(Estimator):
         p = self.params
         z = np.array([site.position[0], site.position[1],
                       self.ctx.building.floors[site.floor].z])
-        Rm = np.diag([p.tag_sigma ** 2, p.tag_sigma ** 2, p.tag_sigma_z ** 2])
+        Rm = np.diag([p.rfid.sigma ** 2, p.rfid.sigma ** 2, p.rfid.sigma_z ** 2])
         D, dz, C = since
         self._tag_level(agent, st, t, site, z[2], dz)
-        relocate = p.relocate_heading_sigma if p.on_gate == "relocate" else None
+        relocate = p.rfid.relocate_heading_sigma if p.rfid.on_gate == "relocate" else None
         res = st.filt.update_position(z, Rm, D, dz, C, gate=gate, relocate=relocate)
         if res.relocated:
             self.ctx.count("tag_relocations")
@@ -467,7 +447,7 @@ class PdrEkf(Estimator):
         was missed; a Gaussian update with the tag's height noise would move it by a
         fraction of a flight per read. A tag is on a door jamb or at a stair end of a
         known floor, and its reader was within a metre or two of it."""
-        gate = self.params.tag_level_gate
+        gate = self.params.rfid.level_gate
         z_then = float(st.filt.x[I_Z]) - dz_since
         if gate is None or abs(level - z_then) <= gate:
             return
@@ -482,7 +462,8 @@ class PdrEkf(Estimator):
 
     def _open_window(self, st: _Agent, site: TagSite, t: float) -> None:
         """Collect the strides after the tag for the door heading (eq. 3)."""
-        if not self.params.door_heading or site.kind not in self.params.heading_sites:
+        door = self.params.door_heading
+        if not door.enabled or site.kind not in door.sites:
             return
         if st.window is not None:
             self.ctx.count("door_headings_superseded")
@@ -511,11 +492,11 @@ class PdrEkf(Estimator):
     def _floor_snap(self, st: _Agent) -> None:
         """A flight just ended: a height near a floor level or landing is set to it."""
         st.snap = False
-        if self.params.floor_snap <= 0 or not len(self._levels):
+        if self.params.height.floor_snap <= 0 or not len(self._levels):
             return
         z = float(st.filt.x[I_Z])
         level = float(self._levels[np.argmin(np.abs(self._levels - z))])
-        if abs(level - z) <= self.params.floor_snap:
+        if abs(level - z) <= self.params.height.floor_snap:
             st.filt.set_height(level, SNAP_SIGMA ** 2)
             self.ctx.count("floor_snaps")
 
@@ -528,7 +509,7 @@ class PdrEkf(Estimator):
         cov = P[np.ix_(idx, idx)].copy()
         self.ctx.publish("pose", PoseEstimate(
             t=st.t_odo, agent=agent, device=st.device, position=x[:3].copy(),
-            heading=wrap(st.walk_dir + x[I_DTHETA]), cov=cov,
+            heading=wrap_angle(st.walk_dir + x[I_DTHETA]), cov=cov,
             floor=self._floor(x[I_Z])))
         st.t_published = st.t_odo
 
@@ -536,11 +517,6 @@ class PdrEkf(Estimator):
         """Floor of height ``z`` [m], to the millimetre: a counted landing half way between
         two floors falls on the building's tie-break side, not on a rounding error's."""
         return int(self.ctx.building.floor_of_z(round(float(z), 3)))
-
-    def _warn_once(self, st: _Agent, t: float, agent: str, code: str, text: str) -> None:
-        if code not in st.warned:
-            st.warned.add(code)
-            self.ctx.diagnose(t, "warning", code, text, agent=agent)
 
 
 def _flight_name(f: Flight) -> str:
@@ -550,20 +526,3 @@ def _flight_name(f: Flight) -> str:
 def _is_still(msg: Odometry) -> bool:
     """A rest event or a stride too short to walk (the gait classifier's 'still')."""
     return msg.motion == "still" or float(np.linalg.norm(msg.delta)) < GaitConfig.still_distance
-
-
-def _odometry_problem(msg: Odometry) -> str:
-    """Why an Odometry message cannot be used ('' when it can)."""
-    delta = np.asarray(msg.delta, float)
-    if delta.shape != (3,):
-        return f"delta has shape {delta.shape}, expected (3,)"
-    if not np.all(np.isfinite(delta)) or not math.isfinite(msg.dheading):
-        return "non-finite increment"
-    if not math.isfinite(msg.heading) or not np.all(np.isfinite(np.asarray(msg.position, float))):
-        return "non-finite absolute pose"
-    cov = np.asarray(msg.cov, float)
-    if not np.all(np.isfinite(cov)) or np.any(np.diag(cov) < 0):
-        return "covariance not finite or with negative variances"
-    if not msg.t >= msg.t_start or not math.isfinite(msg.t):
-        return f"interval ends ({msg.t}) before it starts ({msg.t_start})"
-    return ""

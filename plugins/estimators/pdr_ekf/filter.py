@@ -30,25 +30,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firenav_framework.geometry import wrap_angle as wrap  # also imported from here
+from firenav_framework.geometry import rot2, wrap_angle
 
-__all__ = ["I_E", "I_N", "I_Z", "I_LAMBDA", "I_DTHETA", "PdrFilter", "Update", "rot2",
-           "drot2", "wrap"]
+__all__ = ["I_E", "I_N", "I_Z", "I_LAMBDA", "I_DTHETA", "PdrFilter", "Update", "drot2"]
 
 I_E, I_N, I_Z, I_LAMBDA, I_DTHETA = range(5)
 N_STATE = 5
 
 
-
-
-def rot2(a: float) -> np.ndarray:
-    """2-D rotation matrix by ``a`` [rad] (counter-clockwise)."""
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s], [s, c]])
-
-
 def drot2(a: float) -> np.ndarray:
-    """Derivative of :func:`rot2` with respect to the angle."""
+    """Derivative of :func:`~firenav_framework.geometry.rot2` with respect to the angle."""
     c, s = math.cos(a), math.sin(a)
     return np.array([[-s, -c], [c, -s]])
 
@@ -140,7 +131,7 @@ class PdrFilter:
         """Heading perturbation measured directly (eq. 3): ``z`` [rad], variance [rad^2]."""
         H = np.zeros((1, N_STATE))
         H[0, I_DTHETA] = 1.0
-        innov = np.array([wrap(z - self.x[I_DTHETA])])
+        innov = np.array([wrap_angle(z - self.x[I_DTHETA])])
         return self._update(innov, H, np.array([[var]]), None)
 
     def set_height(self, z: float, var: float) -> None:
@@ -163,7 +154,7 @@ class PdrFilter:
             return Update(innov, nis, False)
         K = np.linalg.solve(S, H @ self.P).T
         self.x = self.x + K @ innov
-        self.x[I_DTHETA] = wrap(self.x[I_DTHETA])
+        self.x[I_DTHETA] = wrap_angle(self.x[I_DTHETA])
         IKH = np.eye(N_STATE) - K @ H
         self.P = IKH @ self.P @ IKH.T + K @ Rm @ K.T     # Joseph form
         self._symmetrise()

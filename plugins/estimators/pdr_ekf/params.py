@@ -1,4 +1,5 @@
-"""Parameters of the RFID/MEMS PDR EKF (one pydantic model: YAML schema, docs, defaults).
+"""Parameters of the RFID/MEMS PDR EKF, in groups: start, process noise (eq. 2), height
+and floors, gait classes, RFID tags and the door-crossing heading (eq. 3).
 
 Paper values where the paper gives them (rfid-mems-ekf): synchronous update every second
 ("System model"), 20 cm per counted stair ("MEMS Navigation Module"), tags on door jambs
@@ -10,10 +11,9 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from pydantic import model_validator
+from firenav_framework import Angle, Params, StartPose, param
 
-from firenav_framework import Params, param
-
+from ..start_pose import start_pose_type
 from .door_heading import DoorHeadingConfig
 from .flight_tracker import FlightConfig
 from .gait import GaitConfig
@@ -21,33 +21,11 @@ from .gait import GaitConfig
 DEG = math.pi / 180.0
 
 
-class PdrEkfParams(Params):
-    # -- timing ------------------------------------------------------------------------
-    update_period: float | None = param(1.0, unit="s", gt=0, description="synchronous "
-                                        "update period (the paper: every second); null = "
-                                        "update at every odometry stride")
-    # -- alignment of the odometry frame -------------------------------------------------
-    alignment: Literal["entrance", "pose", "none"] = param(
-        "entrance", description="how the odometry frame is placed in the building: "
-        "'entrance' = start at the building entrance, the foot pointing inward when the "
-        "walk begins; 'pose' = start_position/start_heading when the walk begins; 'none' "
-        "= the odometry is already in the building frame (dead_reckoning output, e.g. "
-        "ORCA-corrected)")
-    entrance: str | None = param(None, description="entrance id (default: the first one)")
-    start_position: tuple[float, float, float] | None = param(
-        None, unit="m", description="'pose': start position (x, y, z), building frame")
-    start_heading: float | None = param(None, unit="rad", description="'pose': heading of "
-                                        "the foot at the start, building frame")
-    entrance_heading_update: bool = param(True, description="'entrance': the first strides "
-                                          "through the entrance door give a heading update "
-                                          "(eq. 3, no ambiguity: the agent walks in)")
-    start_sigma: float = param(0.5, unit="m", gt=0, description="start position uncertainty "
-                               "(1 sigma per horizontal axis)")
-    start_sigma_heading: float = param(10 * DEG, unit="rad", gt=0, description="start heading "
-                                       "uncertainty (foot mounting yaw, alignment)")
-    # -- process noise (eq. 2) -----------------------------------------------------------
-    start_sigma_scale: float = param(0.05, gt=0, description="initial uncertainty of the "
-                                     "step-length scale factor lambda")
+class Process(Params):
+    """Process noise of eq. 2 and the initial step-scale uncertainty."""
+
+    scale_sigma: float = param(0.05, gt=0, description="initial uncertainty of the "
+                               "step-length scale factor lambda")
     stride_noise: float = param(0.05, unit="m", ge=0, description="extra horizontal noise "
                                 "per stride, on top of the odometry's own covariance")
     scale_rw: float = param(0.002, unit="1/sqrt(s)", ge=0, description="random walk of lambda")
@@ -57,8 +35,12 @@ class PdrEkfParams(Params):
                                       "turned (1 sigma): a foot INS's heading error grows "
                                       "in turns and on stairs far beyond the gyro scale "
                                       "factor")
-    # -- height, gait, floors --------------------------------------------------------------
-    height_source: Literal["stairs", "ins"] = param(
+
+
+class Height(Params):
+    """Height from stairs (or the INS) and the floor levels."""
+
+    source: Literal["stairs", "ins"] = param(
         "stairs", description="Z from counted stairs (the paper) or from the INS height "
         "change (cleared of its drift gradient)")
     step_height: float = param(0.20, unit="m", gt=0, description="nominal stair rise (the "
@@ -78,37 +60,52 @@ class PdrEkfParams(Params):
                                    "when the agent leaves it (else the agent went back)")
     stair_sigma: float = param(0.02, unit="m", ge=0, description="height noise per counted stair")
     floor_snap: float = param(0.5, unit="m", ge=0, description="without the flights "
-                              "(stair_zone null or height_source 'ins'): at the end of a "
-                              "run of stair strides, a height this close to a floor level "
-                              "or a landing is set to it (0: off)")
+                              "(stair_zone null or source 'ins'): at the end of a run of "
+                              "stair strides, a height this close to a floor level or a "
+                              "landing is set to it (0: off)")
     max_stairs_per_stride: int = param(2, ge=1, description="most stairs counted in one "
                                        "stride of the instrumented foot (two steps)")
-    gait_source: Literal["stride", "odometry"] = param(
+
+    def flight_config(self) -> FlightConfig:
+        return FlightConfig(complete_fraction=self.flight_complete,
+                            max_per_stride=self.max_stairs_per_stride,
+                            step_height=None if self.step_height_from_building
+                            else self.step_height)
+
+
+class Gait(Params):
+    """The stride classes (FW, SC, SDF, SDB, still)."""
+
+    source: Literal["stride", "odometry"] = param(
         "stride", description="gait classes from our stride classifier ('stride') or the "
         "odometry's own motion labels")
     stair_min_rise: float = param(0.5, gt=0, description="a stair stride rises at least this "
                                   "many stairs")
     stair_slope: float = param(0.2, gt=0, description="a stair stride's rise over its "
                                "horizontal length is at least this")
-    # -- RFID ----------------------------------------------------------------------------
-    rfid: bool = param(True, description="use tags (false: MEMS alone, the paper's baseline)")
-    tag_sigma: float = param(0.5, unit="m", gt=0, description="horizontal distance of the "
-                             "reader from the tag's site at the strongest read (1 sigma)")
-    tag_sigma_z: float = param(0.1, unit="m", gt=0, description="height of the agent at a tag "
-                               "site vs. its floor level (1 sigma)")
-    tag_level_gate: float | None = param(1.0, unit="m", gt=0, description="a tag read "
-                                         "farther than this from the estimated height "
-                                         "sets the height to the tag's floor level (a "
-                                         "flight was missed); null: only the Gaussian "
-                                         "update with tag_sigma_z")
-    tag_gate: float | None = param(5.0, gt=0, description="horizontal Mahalanobis distance "
-                                   "beyond which a tag detection means the filter has lost "
-                                   "track (null: never)")
+
+
+class Rfid(Params):
+    """Tags deployed on door jambs and stair ends, and their reads."""
+
+    enabled: bool = param(True, description="use tags (false: MEMS alone, the paper's "
+                          "baseline)")
+    sigma: float = param(0.5, unit="m", gt=0, description="horizontal distance of the reader "
+                         "from the tag's site at the strongest read (1 sigma)")
+    sigma_z: float = param(0.1, unit="m", gt=0, description="height of the agent at a tag "
+                           "site vs. its floor level (1 sigma)")
+    level_gate: float | None = param(1.0, unit="m", gt=0, description="a tag read farther "
+                                     "than this from the estimated height sets the height "
+                                     "to the tag's floor level (a flight was missed); null: "
+                                     "only the Gaussian update with sigma_z")
+    gate: float | None = param(5.0, gt=0, description="horizontal Mahalanobis distance beyond "
+                               "which a tag detection means the filter has lost track "
+                               "(null: never)")
     on_gate: Literal["relocate", "reject"] = param(
-        "relocate", description="a detection beyond tag_gate: 'relocate' = trust the tag "
-        "(a read is within a metre or two of it), widening the covariance first; 'reject' "
-        "= refuse it (if tag ids may be duplicated)")
-    relocate_heading_sigma: float = param(20 * DEG, unit="rad", gt=0, description="heading "
+        "relocate", description="a detection beyond gate: 'relocate' = trust the tag (a read "
+        "is within a metre or two of it), widening the covariance first; 'reject' = refuse "
+        "it (if tag ids may be duplicated)")
+    relocate_heading_sigma: Angle = param(20 * DEG, unit="rad", gt=0, description="heading "
                                           "perturbation uncertainty added on a relocation")
     correct_on_deploy: bool = param(True, description="the deploying agent's position is "
                                     "corrected to the site its new tag was associated with")
@@ -119,40 +116,56 @@ class PdrEkfParams(Params):
                                   "this agent last used, within this time, is not used again")
     max_wait: float = param(2.0, unit="s", gt=0, description="a tag event waits at most this "
                             "long for the odometry to catch up with its time")
-    surveyed_tags: dict[str, str] = param({}, description="tags known before the run: tag id "
-                                          "-> tag site id (door id, or '<stair>/bottom|top')")
-    heading_sites: list[Literal["door", "stair"]] = param(
-        ["door", "stair"], description="tag sites whose crossing direction updates the heading")
-    # -- door heading (eq. 3) ---------------------------------------------------------------
-    door_heading: bool = param(True, description="door-crossing heading updates (eq. 3)")
-    door_strides: int = param(3, ge=1, description="n_s: strides averaged after the door")
-    door_clear_distance: float = param(1.0, unit="m", ge=0, description="distance walked past "
-                                       "the tag before the averaging starts")
-    door_sigma: float = param(5 * DEG, unit="rad", gt=0, description="walking direction vs. "
-                              "door axis (1 sigma) for a straight crossing")
-    door_discrepancy_scale: float = param(15 * DEG, unit="rad", gt=0, description="d0 of the "
-                                          "adaptive variance (sigma^2 exp((d/d0)^2))")
-    door_max_discrepancy: float = param(45 * DEG, unit="rad", gt=0, description="a larger "
-                                        "discrepancy refuses the heading update")
+    surveyed: dict[str, str] = param({}, description="tags known before the run: tag id -> "
+                                     "tag site id (door id, or '<stair>/bottom|top')")
 
-    @model_validator(mode="after")
-    def _pose(self) -> "PdrEkfParams":
-        if self.alignment == "pose" and (self.start_position is None or self.start_heading is None):
-            raise ValueError("alignment 'pose' needs start_position and start_heading")
-        return self
+
+class DoorHeading(Params):
+    """The door-crossing heading update of eq. 3."""
+
+    enabled: bool = param(True, description="door-crossing heading updates")
+    at_entrance: bool = param(True, description="start mode 'entrance': the first strides "
+                              "through the entrance door give a heading update (no "
+                              "ambiguity: the agent walks in)")
+    sites: list[Literal["door", "stair"]] = param(
+        ["door", "stair"], description="tag sites whose crossing direction updates the heading")
+    strides: int = param(3, ge=1, description="n_s: strides averaged after the door")
+    clear_distance: float = param(1.0, unit="m", ge=0, description="distance walked past the "
+                                  "tag before the averaging starts")
+    sigma: Angle = param(5 * DEG, unit="rad", gt=0, description="walking direction vs. door "
+                         "axis (1 sigma) for a straight crossing")
+    discrepancy_scale: Angle = param(15 * DEG, unit="rad", gt=0, description="d0 of the "
+                                     "adaptive variance (sigma^2 exp((d/d0)^2))")
+    max_discrepancy: Angle = param(45 * DEG, unit="rad", gt=0, description="a larger "
+                                   "discrepancy refuses the heading update")
+
+    def config(self) -> DoorHeadingConfig:
+        return DoorHeadingConfig(strides=self.strides, clear_distance=self.clear_distance,
+                                 sigma=self.sigma, discrepancy_scale=self.discrepancy_scale,
+                                 max_discrepancy=self.max_discrepancy)
+
+
+#: The start is placed when the walk begins: at the entrance by default, the foot pointing
+#: inward, 0.5 m and 10 deg uncertain (foot mounting yaw, alignment).
+DEFAULT_START = StartPose(mode="entrance", sigma_position=0.5, sigma_heading=10 * DEG)
+PdrEkfStart = start_pose_type(DEFAULT_START, modes=("entrance", "pose", "unknown"))
+
+
+class PdrEkfParams(Params):
+    update_period: float | None = param(1.0, unit="s", gt=0, description="synchronous "
+                                        "update period (the paper: every second); null = "
+                                        "update at every odometry stride")
+    start: PdrEkfStart = param(DEFAULT_START, description=(
+        "where the odometry frame is placed when the walk begins: mode 'entrance' = the "
+        "building entrance, the foot pointing inward; 'pose' = start position and the "
+        "heading of the foot; 'unknown' = the odometry is in the building frame already "
+        "(dead_reckoning output, e.g. ORCA-corrected)"))
+    process: Process = param(Process(), description="process noise (eq. 2)")
+    height: Height = param(Height(), description="height and floors")
+    gait: Gait = param(Gait(), description="stride classes")
+    rfid: Rfid = param(Rfid(), description="RFID tags")
+    door_heading: DoorHeading = param(DoorHeading(), description="door-crossing heading (eq. 3)")
 
     def gait_config(self) -> GaitConfig:
-        return GaitConfig(step_height=self.step_height, min_rise=self.stair_min_rise,
-                          stair_slope=self.stair_slope)
-
-    def flight_config(self) -> FlightConfig:
-        return FlightConfig(complete_fraction=self.flight_complete,
-                            max_per_stride=self.max_stairs_per_stride,
-                            step_height=None if self.step_height_from_building
-                            else self.step_height)
-
-    def door_config(self) -> DoorHeadingConfig:
-        return DoorHeadingConfig(strides=self.door_strides, clear_distance=self.door_clear_distance,
-                                 sigma=self.door_sigma,
-                                 discrepancy_scale=self.door_discrepancy_scale,
-                                 max_discrepancy=self.door_max_discrepancy)
+        return GaitConfig(step_height=self.height.step_height, min_rise=self.gait.stair_min_rise,
+                          stair_slope=self.gait.stair_slope)

@@ -10,8 +10,7 @@ algorithm evaluation", IEEE Trans. Biomed. Eng. 2010; the detectors of PyShoe):
 * ``amvd``  — acceleration moving variance: ``T = 1/W sum |a_j - a_mean|^2 / sigma_a^2``
 
 The fixed detectors declare zero velocity when ``T_k < threshold``. The ``adaptive``
-detector (designed here; tuned on half of the PyShoe VICON trials and checked on the
-other half and on the indoor walks, see ``benchmarks/bench_ins_real_data.py``) works
+detector (designed here; how its defaults were chosen: ``docs/foot-ins.md``) works
 on ``s_k = log10 T_k`` of SHOE and places the threshold of every sample between the
 floor of the current stance and the level of the recent swing:
 

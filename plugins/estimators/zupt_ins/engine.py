@@ -1,6 +1,6 @@
 """The ZUPT-aided INS as a streaming engine over arrays: detector -> filter -> steps.
 
-:class:`InsEngine` is what the plugin, the simulator and the benchmarks call. Feed it
+:class:`InsEngine` is what the estimator and the benchmarks call. Feed it
 blocks of samples (time [s], specific force and angular rate in the FLU body frame)
 with :meth:`InsEngine.process`; call :meth:`InsEngine.finish` at the end of the
 recording. Everything it carries between calls is arrays, so the result of a recording

@@ -153,6 +153,18 @@ def _propagate_cov(P: np.ndarray, n: int, dt: float, R: np.ndarray, fn: np.ndarr
 
 
 @njit(cache=True)
+def _innovation_cov(P: np.ndarray, rows: np.ndarray, var: float) -> np.ndarray:
+    """S = H P H^T + var I for a measurement selecting error-state ``rows`` (H = I[rows])."""
+    m = rows.shape[0]
+    S = np.empty((m, m))
+    for a in range(m):
+        for b in range(m):
+            S[a, b] = P[rows[a], rows[b]]
+        S[a, a] += var
+    return S
+
+
+@njit(cache=True)
 def _update(x: np.ndarray, P: np.ndarray, n: int, rows: np.ndarray, resid: np.ndarray,
             var: float, corr: np.ndarray) -> None:
     """Kalman update with a measurement selecting error-state ``rows`` (H = I[rows]).
@@ -162,12 +174,7 @@ def _update(x: np.ndarray, P: np.ndarray, n: int, rows: np.ndarray, resid: np.nd
     position correction to ``corr``.
     """
     m = rows.shape[0]
-    S = np.empty((m, m))
-    for a in range(m):
-        for b in range(m):
-            S[a, b] = P[rows[a], rows[b]]
-        S[a, a] += var
-    Si = np.linalg.inv(S)
+    Si = np.linalg.inv(_innovation_cov(P, rows, var))
     U = np.empty((n, m))                    # P H^T
     for i in range(n):
         for a in range(m):
@@ -200,13 +207,7 @@ def _update(x: np.ndarray, P: np.ndarray, n: int, rows: np.ndarray, resid: np.nd
 @njit(cache=True)
 def _mahalanobis(P: np.ndarray, rows: np.ndarray, resid: np.ndarray, var: float) -> float:
     """Squared Mahalanobis distance of an innovation for H = I[rows], noise var * I."""
-    m = rows.shape[0]
-    S = np.empty((m, m))
-    for a in range(m):
-        for b in range(m):
-            S[a, b] = P[rows[a], rows[b]]
-        S[a, a] += var
-    return float(resid @ np.linalg.solve(S, resid))
+    return float(resid @ np.linalg.solve(_innovation_cov(P, rows, var), resid))
 
 
 @njit(cache=True)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firenav_framework.geometry import wrap_angle as wrap  # also imported from here
+from firenav_framework.geometry import wrap_angle
 
 from . import eskf
 
@@ -121,10 +121,10 @@ class StepTracker:
         pos = ev[eskf.E_POS:eskf.E_POS + 3].copy()
         yaw = float(ev[eskf.E_YAW])
         delta = pos - self.position
-        dheading = wrap(yaw - self.heading)
+        dheading = wrap_angle(yaw - self.heading)
         kind = int(ev[eskf.E_KIND])
         tilt = float(ev[eskf.E_TILT])
-        mid_yaw = wrap(self.heading + 0.5 * dheading)
+        mid_yaw = wrap_angle(self.heading + 0.5 * dheading)
         motion = self._label(kind, delta, tilt, mid_yaw)
         if motion == "walk" and math.hypot(delta[0], delta[1]) >= self.YAW_MIN_LENGTH:
             off = math.atan2(delta[1], delta[0]) - mid_yaw

@@ -1,15 +1,20 @@
 """The ``zupt_ins`` estimator: foot-IMU ImuBlocks in, step odometry and poses out.
 
-A thin wrapper around :class:`~.engine.InsEngine` (the array core): it screens the
-input (frame, finite values, time order), keeps one engine per IMU device, and turns
-the engine's events and full-rate states into messages. All numerics live in the
-engine, so a recording gives the same output whatever its block sizes.
+A thin wrapper around :class:`~.engine.InsEngine` (the array core): it keeps one engine
+per IMU device and turns the engine's events and full-rate states into messages. All
+numerics live in the engine, so a recording gives the same output whatever its block
+sizes.
+
+Input contract: the blocks of a sensor plugin (``foot_imu``), which has screened the
+samples already: FLU axes, SI units, finite values, sample times strictly increasing
+per device. A block that breaks the contract is counted, reported (at most once per
+``REPORT_INTERVAL`` of data time per device and problem) and skipped whole: its samples
+are not screened a second time here.
 
 Ports: ``odometry`` (:class:`Odometry` per step or rest period, INS frame), ``pose``
-(:class:`PoseEstimate` at the same instants, building frame from ``initial_position``
-and ``initial_heading``), ``state`` (full-rate :class:`PoseEstimate` at ``state_rate``
-Hz, off by default) and ``diagnostics`` (alignment, IMU mounting yaw, gaps, rejected
-input).
+(:class:`PoseEstimate` at the same instants, building frame with a ``start`` of mode
+``pose``), ``state`` (full-rate :class:`PoseEstimate` at ``outputs.state_rate`` Hz, off by
+default) and ``diagnostics`` (alignment, IMU mounting yaw, gaps, rejected input).
 """
 from __future__ import annotations
 
@@ -19,15 +24,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from firenav_framework import Estimator, ImuBlock, Odometry, PerAgent, PoseEstimate
+from firenav_framework.geometry import planar_rotation, wrap_angle
 from firenav_framework.messages import Message
 
 from . import eskf
 from .engine import BlockResult, InsEngine
 from .params import ZuptInsParams
 from .retro import correct_positions
-from .steps import Step, StepTracker, wrap
+from .steps import Step, StepTracker
 
-#: Sample intervals used to measure the IMU rate when ``sample_rate`` is not set.
+__all__ = ["ZuptInsEstimator"]
+
+#: Sample intervals used to measure the IMU rate when ``imu.sample_rate`` is not set.
 RATE_SAMPLES = 50
 #: Longest swing kept back for the retrospective correction of the state output [s].
 MAX_SWING = 10.0
@@ -35,9 +43,9 @@ MAX_SWING = 10.0
 YAW_REPORT_STEP = math.radians(5.0)
 #: A recurring input problem of one device is reported at most once per this much data time [s].
 REPORT_INTERVAL = 10.0
-#: A still start whose mean yaw rate [deg/s] exceeds this, with align_gyro_bias off, gets a
-#: warning: ten times an industrial MEMS gyro's bias instability, 6 deg a minute of heading.
-UNCALIBRATED_YAW_RATE_DPS = 0.1
+#: A still start whose mean yaw rate [rad/s] exceeds this, with alignment.gyro_bias off, gets
+#: a warning: ten times an industrial MEMS gyro's bias instability, 6 deg a minute of heading.
+UNCALIBRATED_YAW_RATE = math.radians(0.1)
 
 
 @dataclass
@@ -55,14 +63,28 @@ class _Device:
     tail: np.ndarray = field(default_factory=lambda: np.zeros((0, eskf.N_OUT)))
     state_slot: float = -math.inf
     yaw_reported: float | None = None
-    reported: dict[str, float] = field(default_factory=dict)   # problem code -> last report t
 
     @property
     def n_pending(self) -> int:
         return sum(len(p[0]) for p in self.pending)
 
 
-class ZuptIns(Estimator):
+@dataclass(frozen=True)
+class _Placement:
+    """The INS frame of one firefighter in the output frame: origin, rotation, frame name."""
+
+    origin: np.ndarray
+    heading: float
+    frame: str
+
+    def apply(self, position: np.ndarray, heading: float, cov: np.ndarray
+              ) -> tuple[np.ndarray, float, np.ndarray]:
+        rot = planar_rotation(self.heading, 4)
+        return (self.origin + rot[:3, :3] @ position, wrap_angle(self.heading + heading),
+                rot @ cov @ rot.T)
+
+
+class ZuptInsEstimator(Estimator):
     """ZUPT-aided strapdown INS (error-state Kalman filter) for foot-mounted IMUs."""
 
     name = "zupt_ins"
@@ -73,14 +95,7 @@ class ZuptIns(Estimator):
     def __init__(self, params: ZuptInsParams, ctx):
         super().__init__(params, ctx)
         self.state: PerAgent[dict[str, _Device]] = PerAgent(lambda agent: {})
-        placed = params.initial_position is not None or params.initial_heading is not None
-        #: "building" once the user placed the start in the building, else the INS's own
-        self._frame = "building" if placed else "odometry"
-        self._heading0 = params.initial_heading or 0.0
-        h = self._heading0
-        self._rot = np.array([[math.cos(h), -math.sin(h), 0.0],
-                              [math.sin(h), math.cos(h), 0.0], [0.0, 0.0, 1.0]])
-        self._origin = np.asarray(params.initial_position or (0.0, 0.0, 0.0), float)
+        self._placements: dict[str, _Placement] = {}
 
     # -- input ---------------------------------------------------------------------------
     def handle(self, stream: str, msg: Message) -> None:
@@ -88,65 +103,54 @@ class ZuptIns(Estimator):
             self.ctx.count("ignored_messages")
             return
         dev = self._device(msg.agent, msg.device)
-        if msg.frame != "FLU":
-            self.ctx.count("rejected_blocks_not_flu")
-            self._report(dev, msg, "error", "imu_not_flu",
-                         f"ImuBlock in frame '{msg.frame}', expected FLU (put a foot_imu "
-                         "sensor with the right `axes` before zupt_ins)")
+        if not self._meets_contract(dev, msg):
             return
-        t, acc, gyro = self._screen(dev, msg)
-        if len(t) == 0:
-            return
+        t = np.asarray(msg.time, float)
+        acc = np.asarray(msg.accel, float)
+        gyro = np.asarray(msg.gyro, float)
         dev.last_t = float(t[-1])
         if dev.engine is None:
             dev.pending.append((t, acc, gyro))
-            if self.params.sample_rate is None and dev.n_pending <= RATE_SAMPLES:
+            if self.params.imu.sample_rate is None and dev.n_pending <= RATE_SAMPLES:
                 return
             t, acc, gyro = (np.concatenate(a) for a in zip(*dev.pending))
             dev.pending.clear()
             dev.engine = self._new_engine(t, msg)
         self._publish(msg.agent, dev, dev.engine.process(t, acc, gyro))
 
-    def _screen(self, dev: _Device, msg: ImuBlock) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Finite samples whose time increases strictly (others counted and dropped)."""
-        t = np.asarray(msg.time, float)
-        acc = np.asarray(msg.accel, float)
-        gyro = np.asarray(msg.gyro, float)
-        finite = np.isfinite(t) & np.isfinite(acc).all(axis=1) & np.isfinite(gyro).all(axis=1)
-        bad = int(len(t) - finite.sum())
-        if bad:
-            self.ctx.count("rejected_samples_nonfinite", bad)
-            self._report(dev, msg, "warning", "imu_nonfinite",
-                         f"{bad} sample(s) with NaN/inf values were dropped")
-            t, acc, gyro = t[finite], acc[finite], gyro[finite]
-        prev_max = np.maximum.accumulate(np.concatenate(([dev.last_t], t)))[:-1]
-        ordered = t > prev_max
-        back = int(len(t) - ordered.sum())
-        if back:
-            self.ctx.count("rejected_samples_time_backwards", back)
-            self._report(dev, msg, "warning", "imu_time_backwards",
-                         f"{back} sample(s) not later than the previous one were dropped")
-            t, acc, gyro = t[ordered], acc[ordered], gyro[ordered]
-        return t, acc, gyro
-
-    def _report(self, dev: _Device, msg: ImuBlock, level: str, code: str, text: str) -> None:
-        """A diagnostic about bad input, at most once per REPORT_INTERVAL per device and code
-        (the counts in the run summary have every occurrence)."""
-        last = dev.reported.get(code)
-        if last is not None and abs(msg.t - last) < REPORT_INTERVAL:
-            return
-        dev.reported[code] = msg.t
-        self.ctx.diagnose(msg.t, level, code, f"{msg.device}: {text}", agent=msg.agent)
+    def _meets_contract(self, dev: _Device, msg: ImuBlock) -> bool:
+        """Whether a block is what a sensor plugin publishes (FLU, finite, samples later
+        than the device's previous ones and increasing); a block that is not is counted,
+        reported and skipped: the filter must never integrate it."""
+        if msg.frame != "FLU":
+            problem = ("not_flu", "error", "imu_not_flu",
+                       f"block(s) in frame '{msg.frame}', not FLU, skipped (put a foot_imu "
+                       "sensor with the right `axes` before zupt_ins)")
+        elif not (np.isfinite(msg.time).all() and np.isfinite(msg.accel).all()
+                  and np.isfinite(msg.gyro).all()):
+            problem = ("nonfinite", "warning", "imu_nonfinite",
+                       "block(s) with NaN/inf samples skipped (a sensor plugin drops those)")
+        elif not (msg.time[0] > dev.last_t and np.all(np.diff(msg.time) > 0)):
+            problem = ("time_order", "warning", "imu_time_backwards",
+                       "block(s) with samples not later than the previous ones skipped")
+        else:
+            return True
+        what, level, code, text = problem
+        self.ctx.count(f"rejected_blocks_{what}")
+        self.ctx.report(msg.t, code, text, agent=msg.agent, key=msg.device, level=level,
+                        every=REPORT_INTERVAL)
+        return False
 
     def _device(self, agent: str, device: str) -> _Device:
         devices = self.state[agent]
         dev = devices.get(device)
         if dev is None:
-            dev = devices[device] = _Device(device, StepTracker(self.params.gait(), self.params.unmodelled()))
+            dev = devices[device] = _Device(device, StepTracker(self.params.gait.thresholds(),
+                                                                self.params.odometry.errors()))
         return dev
 
     def _new_engine(self, t: np.ndarray, msg: ImuBlock) -> InsEngine:
-        rate = self.params.sample_rate
+        rate = self.params.imu.sample_rate
         if rate is None:
             dt = float(np.median(np.diff(t[:RATE_SAMPLES + 1])))
             rate = 1.0 / dt
@@ -182,7 +186,7 @@ class ZuptIns(Estimator):
             self.ctx.count("gaps", eng.gaps - dev.gaps)
             t = float(res.states[-1, eskf.O_T]) if len(res.states) else dev.last_t
             self.ctx.diagnose(t, "warning", "imu_gap", f"{dev.device}: {eng.gaps - dev.gaps} "
-                              f"sample interval(s) longer than {self.params.max_gap} s were "
+                              f"sample interval(s) longer than {self.params.filter.max_gap} s were "
                               "integrated as that long", agent=agent)
             dev.gaps = eng.gaps
         if eng.zaru_rejected > dev.zaru_rejected:
@@ -191,7 +195,7 @@ class ZuptIns(Estimator):
         for ev in res.events:
             step = dev.steps.step(ev)
             self._publish_step(agent, dev, step)
-        if self.params.state_rate > 0:
+        if self.params.outputs.state_rate > 0:
             self._publish_states(agent, dev, res, final)
 
     def _report_alignment(self, agent: str, dev: _Device, res: BlockResult) -> None:
@@ -200,46 +204,54 @@ class ZuptIns(Estimator):
         q = res.states[aligned[0], eskf.O_Q:eskf.O_Q + 4] if len(aligned) else dev.engine.nominal[6:10]
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, 1 - 2 * (q[1] ** 2 + q[2] ** 2)))))
         used = dev.engine.alignment_samples / dev.engine.filter.align_samples
+        align = self.params.alignment
         short = used < 1.0
         self.ctx.diagnose(
             t, "warning" if short else "info", "ins_aligned",
             f"{dev.device}: aligned from gravity (foot tilt {tilt:.0f} deg)"
-            + (f" on a still period of {used * self.params.alignment_duration:.2f} s, shorter "
-               f"than alignment_duration {self.params.alignment_duration:g} s"
+            + (f" on a still period of {used * align.duration:.2f} s, shorter "
+               f"than alignment.duration {align.duration:g} s"
                if short else "") + "; navigation started", agent=agent)
-        yaw_rate = abs(math.degrees(dev.engine.alignment_yaw_rate))
+        yaw_rate = abs(dev.engine.alignment_yaw_rate)
         # the mean of white noise over the still time must not pass for a bias
-        noise = math.degrees(self.params.gyro_noise_density) / math.sqrt(
-            used * self.params.alignment_duration)
-        if not self.params.align_gyro_bias and yaw_rate > max(UNCALIBRATED_YAW_RATE_DPS,
-                                                              5 * noise):
+        noise = self.params.imu.gyro_noise_density / math.sqrt(used * align.duration)
+        if not align.gyro_bias and yaw_rate > max(UNCALIBRATED_YAW_RATE, 5 * noise):
             self.ctx.count("uncalibrated_gyro_starts")
+            dps = math.degrees(yaw_rate)
             self.ctx.diagnose(
                 t, "warning", "ins_gyro_uncalibrated",
                 f"{dev.device}: the foot was still at the start but its gyro read "
-                f"{yaw_rate:.2f} deg/s about the vertical; left in, that turns the track by "
-                f"about {yaw_rate * 60:.0f} deg a minute. Set align_gyro_bias: true if the "
+                f"{dps:.2f} deg/s about the vertical; left in, that turns the track by "
+                f"about {dps * 60:.0f} deg a minute. Set alignment.gyro_bias: true if the "
                 "wearer stands still at the start", agent=agent)
 
-    def _to_building(self, position: np.ndarray, heading: float, cov: np.ndarray
-                     ) -> tuple[np.ndarray, float, np.ndarray]:
-        T = np.eye(4)
-        T[:3, :3] = self._rot
-        return (self._origin + self._rot @ position, wrap(self._heading0 + heading),
-                T @ cov @ T.T)
+    def placement(self, agent: str) -> _Placement:
+        """Where ``agent``'s INS frame lies in the output frame (``start``)."""
+        placed = self._placements.get(agent)
+        if placed is None:
+            start = self.params.start
+            if start.mode == "pose":
+                position, heading = start.pose_of(agent)
+                placed = _Placement(np.asarray(position or (0.0, 0.0, 0.0), float),
+                                    heading or 0.0, "building")
+            else:
+                placed = _Placement(np.zeros(3), 0.0, "odometry")
+            self._placements[agent] = placed
+        return placed
 
     def _publish_step(self, agent: str, dev: _Device, step: Step) -> None:
         self.ctx.publish("odometry", Odometry(
             t=step.t, agent=agent, device=dev.device, t_start=step.t_start, delta=step.delta,
             dheading=step.dheading, cov=step.cov, position=step.position,
             heading=step.heading, motion=step.motion))
-        pos, heading, cov = self._to_building(step.position, step.heading, step.cov_abs)
+        placed = self.placement(agent)
+        pos, heading, cov = placed.apply(step.position, step.heading, step.cov_abs)
         self.ctx.publish("pose", PoseEstimate(t=step.t, agent=agent, device=dev.device,
                                               position=pos, heading=heading, cov=cov,
-                                              frame=self._frame))
+                                              frame=placed.frame))
         yaw = dev.steps.mount_yaw
         if yaw is not None and (dev.yaw_reported is None
-                                or abs(wrap(yaw - dev.yaw_reported)) > YAW_REPORT_STEP):
+                                or abs(wrap_angle(yaw - dev.yaw_reported)) > YAW_REPORT_STEP):
             dev.yaw_reported = yaw
             self.ctx.diagnose(step.t, "info", "imu_mount_yaw",
                               f"{dev.device}: walking direction is {math.degrees(yaw):+.1f} deg "
@@ -248,7 +260,7 @@ class ZuptIns(Estimator):
 
     def _publish_states(self, agent: str, dev: _Device, res: BlockResult, final: bool) -> None:
         rows = np.concatenate((dev.tail, res.states)) if len(dev.tail) else res.states
-        if self.params.retrospective_correction and len(rows):
+        if self.params.outputs.retrospective_correction and len(rows):
             rows = rows.copy()
             rows[:, eskf.O_POS:eskf.O_POS + 3] = correct_positions(
                 rows[:, eskf.O_T], rows[:, eskf.O_POS:eskf.O_POS + 3], res.events)
@@ -261,7 +273,8 @@ class ZuptIns(Estimator):
         out = out[out[:, eskf.O_ALIGNED] > 0]
         if not len(out):
             return
-        slots = np.floor(out[:, eskf.O_T] * self.params.state_rate)
+        slots = np.floor(out[:, eskf.O_T] * self.params.outputs.state_rate)
+        placed = self.placement(agent)
         first = np.flatnonzero(np.diff(np.concatenate(([dev.state_slot], slots))) > 0)
         dev.state_slot = float(slots[-1])
         iu = np.triu_indices(4)
@@ -269,10 +282,10 @@ class ZuptIns(Estimator):
             cov = np.zeros((4, 4))
             cov[iu] = row[eskf.O_COV:eskf.O_COV + 10]
             cov = cov + cov.T - np.diag(np.diag(cov))
-            pos, heading, cov = self._to_building(row[eskf.O_POS:eskf.O_POS + 3],
-                                                  float(row[eskf.O_YAW]), cov)
+            pos, heading, cov = placed.apply(row[eskf.O_POS:eskf.O_POS + 3],
+                                             float(row[eskf.O_YAW]), cov)
             self.ctx.publish("state", PoseEstimate(t=float(row[eskf.O_T]), agent=agent,
                                                    device=dev.device, position=pos,
                                                    heading=heading, cov=cov,
-                                                   frame=self._frame))
+                                                   frame=placed.frame))
 

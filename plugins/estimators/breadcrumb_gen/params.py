@@ -1,0 +1,118 @@
+"""Parameters of ``breadcrumb_gen``, in groups: the base station, the start, the odometry
+edges, the breadcrumbs, the radio edges, the graph window and the heading states."""
+from __future__ import annotations
+
+from firenav_framework import Angle, AngularRate, Params, StartPose, Vec3, param
+
+from ..start_pose import start_pose_type
+
+
+class Base(Params):
+    """The base station: the anchor of the graph."""
+
+    id: str = param("base", description="node id of the base station")
+    position: Vec3 | None = param(None, unit="m", description="antenna position (x, y, z), "
+                                  "building frame; null: the building's anchor of that id")
+
+
+class OdometryEdges(Params):
+    """Odometry steps as edges between consecutive firefighter states."""
+
+    rotation: dict[str, Angle] = param({}, unit="rad", description="per agent: rotation from "
+                                       "the odometry frame into the building frame (default "
+                                       "0: odometry already in the building frame)")
+    noise_per_m: float = param(0.05, ge=0, description="extra horizontal std per axis per "
+                               "metre of step, for INS errors the per-step covariance leaves "
+                               "out")
+    max_speed: float = param(5.0, unit="m/s", gt=0, description="a step faster than this is "
+                             "impossible and dropped (§IV-F)")
+
+
+class Breadcrumbs(Params):
+    """Dropped breadcrumbs and kicked ones (§V-C)."""
+
+    drop_sigma: float = param(0.3, unit="m", gt=0, description="a dropped breadcrumb lies "
+                              "this close to the dropping foot, per horizontal axis")
+    kick_sigma: float = param(1.5, unit="m", gt=0, description="displacement of a kicked "
+                              "breadcrumb per horizontal axis (§V-C: 1-2 m)")
+    antenna_height: float = param(0.05, unit="m", ge=0, description="breadcrumb antenna above "
+                                  "the floor")
+
+
+class Radio(Params):
+    """RSSI ranges and encounters as edges, with their outlier rules (§IV-F)."""
+
+    use_ranges: bool = param(True, description="use RSSI ranges (false: PDR with drops and "
+                             "encounters only)")
+    use_encounters: bool = param(True, description="use encounter events")
+    agent_antenna_height: float = param(1.2, unit="m", ge=0, description="worn radio above "
+                                        "the foot")
+    max_range: float = param(1.5, unit="m", gt=0, description="longer RSSI ranges are not "
+                             "used (§V-B: ranges within 1.5 m are relatively accurate; walls "
+                             "and the body bias longer ones)")
+    near_range: float = param(1.5, unit="m", gt=0, description="shorter ranges enter as a "
+                              "zero relative position of that spread")
+    period: float = param(2.0, unit="s", ge=0, description="at most one range per firefighter "
+                          "and node in this time (shadowing is correlated over metres)")
+    static_samples: int = param(10, ge=1, description="readings averaged (median) into the "
+                                "single range edge between two fixed nodes")
+    gate: float = param(4.0, gt=0, description="innovation [sigmas] above which a range or "
+                        "encounter is dropped (§IV-F)")
+    weaken: float = param(2.0, gt=0, description="innovation [sigmas] above which a range's "
+                          "variance is inflated (§IV-F)")
+    time_match: float = param(1.0, unit="s", gt=0, description="a radio event is tied to the "
+                              "firefighter state nearest in time, at most this far")
+
+
+class Graph(Params):
+    """The marginalisation window (§IV-E) and the incremental solver."""
+
+    window: int = param(20, ge=2, description="past states per firefighter kept in the graph; "
+                        "older ones are marginalised (eq. 17)")
+    window_max: int = param(200, ge=2, description="past states kept at most while the oldest "
+                            "one's heading is unsettled (heading states; never fewer than "
+                            "window)")
+    settle_heading_sigma: Angle = param(0.1, unit="rad", gt=0, description="a state is "
+                                        "marginalised only once its heading is known this "
+                                        "well (heading states)")
+    relinearize_sigma: float = param(0.1, gt=0, description="re-linearise a range when its "
+                                     "linearisation error exceeds this many sigmas")
+    max_active_dims: int = param(600, ge=30, description="dense active set of the incremental "
+                                 "solver before refactorising")
+
+
+class HeadingStates(Params):
+    """Each state's INS heading correction: offset, drift rate and turn scale error."""
+
+    enabled: bool = param(True, description="estimate them in the graph (false: the paper's "
+                          "position-only GEN)")
+    rate_sigma: AngularRate = param(0.009, unit="rad/s", gt=0, description="residual gyro bias "
+                                    "about z at the start (after the INS's still alignment)")
+    rate_walk: float = param(1e-4, unit="rad/s/sqrt(s)", ge=0, description="random walk of "
+                             "that bias (warm-up drift, bias instability)")
+    turn_scale_sigma: float = param(0.02, gt=0, description="gyro scale-factor error: heading "
+                                    "error per radian the INS turned")
+    turn_scale_walk: float = param(1e-3, ge=0, description="random walk of the scale-factor "
+                                   "error per step")
+
+
+#: Firefighters start relative to the base station, 0.5 m per axis uncertain, with the
+#: known start heading good to 2 degrees.
+DEFAULT_START = StartPose(mode="unknown", sigma_position=0.5, sigma_heading=0.035)
+BreadcrumbGenStart = start_pose_type(DEFAULT_START, modes=("unknown", "pose"),
+                                     needs_heading=False)
+
+
+class BreadcrumbGenParams(Params):
+    base: Base = param(Base(), description="the base station")
+    start: BreadcrumbGenStart = param(DEFAULT_START, description=(
+        "where each firefighter's first state is: mode 'unknown' = the odometry's own "
+        "position before its first step; 'pose' = the start position (per agent in agents; "
+        "the heading comes from the odometry). sigma_position is relative to the base; "
+        "sigma_heading is the start heading's (heading states)"))
+    odometry: OdometryEdges = param(OdometryEdges(), description="odometry edges")
+    breadcrumbs: Breadcrumbs = param(Breadcrumbs(), description="drops and kicks")
+    radio: Radio = param(Radio(), description="ranges and encounters")
+    graph: Graph = param(Graph(), description="marginalisation window and solver")
+    heading: HeadingStates = param(HeadingStates(), description="heading states (beyond the "
+                                   "paper)")

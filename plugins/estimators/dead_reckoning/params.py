@@ -1,0 +1,77 @@
+"""Parameters of ``dead_reckoning``: the start pose (with the first-segment heading), the
+IMU-yaw to walking-direction offset, the per-step noise floors and gap bridging."""
+from __future__ import annotations
+
+from pydantic import model_validator
+
+from firenav_framework import Angle, Params, StartPose, param
+
+from ..start_pose import missing_headings, start_pose_type
+
+
+class FirstSegment(Params):
+    """Heading from the first straight segment walked along a wall of known direction."""
+
+    wall_heading: Angle | None = param(None, unit="rad", description="building-frame "
+                                       "direction of the first straight segment (a known "
+                                       "wall); default: the start heading")
+    distance: float = param(3.0, unit="m", gt=0, description="straight distance walked "
+                            "before the heading is fixed")
+    straightness: float = param(0.3, unit="m", gt=0, description="largest sideways deviation "
+                                "from the chord that still counts as straight")
+
+
+class DeadReckoningStart(StartPose):
+    """:class:`StartPose` with the ORCA paper's other way to the start heading: the first
+    straight segment walked along a wall (``first_segment``); the position is that of the
+    mode (``entrance``, ``pose`` or ``truth``)."""
+
+    first_segment: FirstSegment | None = param(
+        None, description="take the start heading from the first straight segment walked "
+        "(along a wall of direction first_segment.wall_heading) instead of the start pose")
+
+    @model_validator(mode="after")
+    def _heading_known(self) -> "DeadReckoningStart":
+        if self.mode == "pose" and self.first_segment is None and missing_headings(self):
+            raise ValueError(f"start mode 'pose' needs a heading for "
+                             f"{', '.join(missing_headings(self))} (or first_segment)")
+        return self
+
+
+DEFAULT_START = DeadReckoningStart()
+Start = start_pose_type(DEFAULT_START, modes=("entrance", "pose", "truth", "unknown"),
+                        needs_heading=False)
+
+
+class ImuYawOffset(Params):
+    """Walking direction minus the INS heading: the IMU's yaw on the boot plus the toe-out."""
+
+    angle: Angle | None = param(None, unit="rad", description="the offset, if known; null: "
+                                "estimated from the first straight steps")
+    steps: int = param(6, ge=1, description="straight forward steps the estimate uses (the "
+                       "steps are held back until then)")
+
+
+class StepNoise(Params):
+    """Least noise per step in the covariance, for what INS covariances tend to leave out."""
+
+    heading_sigma: Angle = param(0.005, unit="rad", ge=0, description="heading noise per step "
+                                 "(INS heading drift)")
+    length_sigma: float = param(0.01, ge=0, description="position noise per step and axis, as "
+                                "a fraction of the step length")
+
+
+class DeadReckoningParams(Params):
+    start: Start = param(DEFAULT_START, description=(
+        "how the INS frame is placed in the building (eq. 9): mode 'entrance' = the building "
+        "entrance's position and inward heading; 'pose' = start position and heading; "
+        "'truth' = the pose of a GroundTruth input stream when the INS starts (a surveyed "
+        "start, for evaluation: the paper's GNSS fix at the entrance); 'unknown' = the INS "
+        "frame is the building frame"))
+    imu_yaw_offset: ImuYawOffset = param(ImuYawOffset(), description="walking direction minus "
+                                         "the INS heading")
+    step_noise: StepNoise = param(StepNoise(), description="least per-step noise in the "
+                                  "covariance")
+    max_bridge_speed: float = param(3.0, unit="m/s", gt=0, description="a gap in the "
+                                    "odometry is bridged from the INS's absolute positions "
+                                    "only if the implied speed is below this")

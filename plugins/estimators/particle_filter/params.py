@@ -1,0 +1,114 @@
+"""Parameters of the particle filter, in groups: start, time update (motion), resampling,
+particles injected by constraints and the map-error monitor. Defaults are the paper's
+(search-pattern paper §V-B) where it gives them."""
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+from pydantic import BeforeValidator
+
+from firenav_framework import Angle, AngularRate, Params, StartPose, param
+from firenav_framework.contract.params import parse_angle
+
+from ..start_pose import start_pose_type
+from .motion import MotionNoise
+from .resampling import Resampler
+
+DEG = math.pi / 180.0
+
+#: A heading noise per metre walked [rad/m]; YAML may say ``2 deg/m``.
+AnglePerMetre = Annotated[float, BeforeValidator(
+    lambda v: parse_angle(v, {"": 1.0, "rad/m": 1.0, "deg/m": DEG}))]
+
+
+class ParticleFilterStart(StartPose):
+    """:class:`StartPose` with the spread of a start at the entrance: particles uniform over
+    the free space near it (the entrance lies on the outer wall, so a Gaussian would put
+    half of them outside). Mode ``unknown`` is the global initialisation of §V-C: uniform
+    over the free space of every floor, all headings."""
+
+    entrance_radius: float = param(1.5, unit="m", gt=0, description="mode 'entrance': "
+                                   "particles within this radius of the entrance (instead of "
+                                   "a Gaussian of sigma_position)")
+
+
+DEFAULT_START = ParticleFilterStart(mode="unknown", sigma_position=0.1, sigma_heading=5 * DEG)
+#: A start pose without a heading gives particles of all headings.
+Start = start_pose_type(DEFAULT_START, modes=("unknown", "pose", "entrance", "truth"),
+                        needs_heading=False)
+
+
+class Motion(Params):
+    """The time update: the odometry increment plus noise, per particle."""
+
+    position_noise: float = param(0.12, unit="m", ge=0, description="position noise per "
+                                  "axis per noise_period (§V-B)")
+    noise_period: float = param(0.5, unit="s", gt=0, description="update period the noise "
+                                "figures refer to (2 Hz in §V-B)")
+    heading_noise: AnglePerMetre = param(2 * DEG, unit="rad/m", ge=0, description="heading "
+                                         "noise per metre walked (§V-B)")
+    noise_while_still: bool = param(True, description="add the noise also over odometry "
+                                    "increments labelled 'still' (the paper adds it at every "
+                                    "2 Hz update); false: a foot at rest, where a ZUPT INS "
+                                    "does not drift, does not spread the particles")
+    step_scale_sigma: float = param(0.0, ge=0, lt=0.5, description="spread of a per-particle "
+                                    "step-length scale around 1 (0 disables the scale state)")
+    yaw_rate_sigma: AngularRate = param(0.0, unit="rad/s", ge=0, description="spread of a "
+                                        "per-particle drift rate of the INS heading, for "
+                                        "odometry whose yaw gyro bias was not calibrated "
+                                        "(e.g. an IMU's turn-on bias; 0 disables)")
+
+    def noise(self) -> MotionNoise:
+        return MotionNoise(position_sigma_m=self.position_noise, period_s=self.noise_period,
+                           heading_sigma_rad_per_m=self.heading_noise)
+
+
+class Resampling(Params):
+    """Replacing improbable particles and resampling the cloud."""
+
+    weight_floor: float = param(0.01, ge=0, lt=1, description="particles with weight below "
+                                "weight_floor/N are replaced (epsilon = 0.01/N_p, §V-B)")
+    scheme: Resampler = param("systematic", description="resampling scheme")
+    below_ess: float = param(0.5, ge=0, le=1, description="resample when ESS < this * N "
+                             "(1 = every update, 0 = never)")
+
+
+class Injection(Params):
+    """The weight of particles a constraint injects (pseudo-observation resampling)."""
+
+    weight: Literal["neighbours", "uniform"] = param(
+        "neighbours", description="the kernel-weighted mean weight of the particles already "
+        "near them (neighbours), or 1/N each (uniform)")
+    kernel_position: float = param(1.0, unit="m", gt=0, description="neighbours: kernel "
+                                   "width per axis")
+    kernel_heading: Angle = param(30 * DEG, unit="rad", gt=0, description="neighbours: kernel "
+                                  "width on heading")
+
+
+class MapError(Params):
+    """The spread monitor of §V-E."""
+
+    variance: float = param(3.0, unit="m^2", gt=0, description="var_x + var_y above which the "
+                            "estimate is not trusted / a map error is suspected")
+    clear: float | None = param(None, unit="m^2", gt=0, description="var_x + var_y below "
+                                "which a map error clears (default: the same threshold)")
+
+
+class ParticleFilterParams(Params):
+    particles: int = param(500, gt=0, description="particles per firefighter (N_p, §V-B)")
+    start: Start = param(DEFAULT_START, description=(
+        "the initial cloud: mode 'unknown' = spread over the free space, all headings "
+        "(§V-C); 'pose' = around the start pose (all headings without one); 'entrance' = "
+        "near a building entrance, heading inwards; 'truth' = around the agent's first "
+        "ground-truth pose (evaluation of the known-start case only)"))
+    motion: Motion = param(Motion(), description="time update")
+    resampling: Resampling = param(Resampling(), description="replacement and resampling")
+    injection: Injection = param(Injection(), description="particles injected by constraints")
+    map_error: MapError = param(MapError(), description="map-error monitor (§V-E)")
+    update_interval: float = param(0.5, unit="s", ge=0, description="odometry is summed to at "
+                                   "least this interval per update (2 Hz in §V-B)")
+    offset_window: float = param(20.0, unit="m", gt=0, description="path length over which "
+                                 "the IMU-yaw to walking-direction offset is estimated "
+                                 "(footnote 4)")
+    seed: int = param(0, description="random seed (combined with the agent name)")
