@@ -30,7 +30,7 @@ from pydantic import field_validator, model_validator
 
 from firenav_framework.contract import Context, Params, Sensor, param
 from firenav_framework.messages import ImuBlock, RawFrame
-from firenav_framework.sources.readers.imu_csv import UNIT_SCALES
+from firenav_framework.formats.imu_csv import UNIT_SCALES
 
 from .imu_calibration import CalibrationFile, LinearCorrection, axes_matrix, load_calibration
 from .imu_can import CanImuDecoder

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from firenav_framework.messages import ImuBlock
-from firenav_framework.sources.readers.imu_csv import write_imu_csv
+from firenav_framework.formats.imu_csv import write_imu_csv
 from firenav_framework.transports.links import enlarge_receive_buffer
 from firenav_framework.transports.mavlink_link import mavutil
 
