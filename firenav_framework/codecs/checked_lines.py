@@ -1,0 +1,54 @@
+"""Comma-separated ASCII device lines with an optional NMEA-style ``*HH`` checksum.
+
+The RFID reader and the UWB ranging tag both speak this dialect over serial or UDP:
+``KIND,field,field,...*HH`` where ``HH`` (hex, optional) is the XOR of every byte
+before the ``*``. This module frames and checks such lines; each codec
+(``uwb_lines``, ``rfid_lines``) parses its own fields.
+"""
+from __future__ import annotations
+
+import re
+from functools import reduce
+from operator import xor
+
+from .base import FrameError
+
+__all__ = ["NAME", "checksum", "encode_fields", "decode_fields"]
+
+#: A device, reader, tag or anchor name: no commas, spaces or checksum markers.
+NAME = re.compile(r"^[A-Za-z0-9_.:/-]+$")
+
+
+def checksum(body: bytes) -> int:
+    """The XOR of all bytes of ``body`` (the NMEA 0183 checksum)."""
+    return reduce(xor, body, 0)
+
+
+def encode_fields(fields: list[str], with_checksum: bool = True) -> bytes:
+    """The line (no terminator) for ``fields``, with its ``*HH`` checksum if asked."""
+    body = ",".join(fields).encode("ascii")
+    return body + (b"*%02X" % checksum(body) if with_checksum else b"")
+
+
+def decode_fields(data: bytes, kinds: tuple[str, ...]) -> list[str] | None:
+    """The fields of a line whose first field is one of ``kinds``; None for other lines.
+
+    A ``*HH`` suffix, when present, must match (else :class:`FrameError`
+    ``checksum_errors``); bytes outside ASCII raise :class:`FrameError` ``bad_frames``.
+    """
+    try:
+        text = bytes(data).decode("ascii").strip()
+    except UnicodeDecodeError:
+        raise FrameError("bad_frames", "line is not ASCII") from None
+    if text.split(",", 1)[0] not in kinds:
+        return None
+    if "*" in text:
+        body, _, cs = text.rpartition("*")
+        try:
+            ok = int(cs, 16) == checksum(body.encode("ascii"))
+        except ValueError:
+            ok = False
+        if not ok:
+            raise FrameError("checksum_errors", f"checksum mismatch: {text!r}")
+        text = body
+    return text.split(",")
