@@ -167,7 +167,8 @@ PIPELINE = """\
 name: planted
 sources: [{{id: rec, plugin: recording, path: "{path}"}}]
 sensors:
-  - {{id: imu, plugin: foot_imu, input: rec.imu, axes: [x, -y, -z], accel_saturation: 156.9}}
+  - {{id: imu, plugin: foot_imu, input: rec.imu, axes: [x, -y, -z],
+       screening: {{accel_saturation: 156.9}}}}
 sinks:
   - {{id: collect, plugin: collect_imu, input: imu.imu}}
   - {{plugin: diagnostics_log, input: "*.diagnostics"}}
