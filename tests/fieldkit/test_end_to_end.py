@@ -17,7 +17,6 @@ from firenav_framework.tracks import Track
 from .conftest import free_port
 from .harness import AGENTS, PIPELINE, assert_matches_offline, offline_tracks, run_live
 
-pytest.importorskip("firenav_plugins.estimators.zupt_ins", reason="zupt_ins not installed")
 
 
 def csv_rows_by_agent(path: Path) -> dict[str, list[str]]:

@@ -24,7 +24,6 @@ from .conftest import WAIT_S, free_port, wait_for
 from .harness import AGENTS, MAV_AGENTS, PIPELINE, simulation
 from .test_end_to_end import csv_rows_by_agent
 
-pytest.importorskip("firenav_plugins.estimators.zupt_ins", reason="zupt_ins not installed")
 GROUP = "239.74.163.2"
 
 
