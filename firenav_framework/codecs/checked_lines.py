@@ -11,12 +11,19 @@ import re
 from functools import reduce
 from operator import xor
 
-from .base import FrameError
+from ..contract.params import param
+from .base import Codec, FrameError
 
-__all__ = ["NAME", "checksum", "encode_fields", "decode_fields"]
+__all__ = ["NAME", "CheckedLineOptions", "checksum", "encode_fields", "decode_fields"]
 
 #: A device, reader, tag or anchor name: no commas, spaces or checksum markers.
 NAME = re.compile(r"^[A-Za-z0-9_.:/-]+$")
+
+
+class CheckedLineOptions(Codec.Options):
+    """Options of a checked-line codec."""
+
+    checksum: bool = param(True, description="encoding appends the *HH checksum")
 
 
 def checksum(body: bytes) -> int:

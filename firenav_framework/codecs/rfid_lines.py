@@ -12,10 +12,9 @@ import math
 from collections.abc import Iterable
 from typing import Literal, NamedTuple
 
-from ..contract.params import param
 from ..messages import RawFrame
 from .base import Codec, EncodedFrame, FrameError
-from .checked_lines import NAME, decode_fields, encode_fields
+from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
 
 __all__ = ["RfidEvent", "RfidLinesCodec"]
 
@@ -46,9 +45,7 @@ class RfidLinesCodec(Codec):
     name = "rfid_lines"
     transport = "lines"
     record = RfidEvent
-
-    class Options(Codec.Options):
-        checksum: bool = param(True, description="encoding appends the *HH checksum")
+    Options = CheckedLineOptions
 
     def decode(self, frame: RawFrame) -> list[RfidEvent] | None:
         parts = decode_fields(frame.data, ("TAG", "DEPLOY"))

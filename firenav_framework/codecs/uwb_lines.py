@@ -7,10 +7,9 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
-from ..contract.params import param
 from ..messages import RawFrame
 from .base import Codec, EncodedFrame, FrameError
-from .checked_lines import NAME, decode_fields, encode_fields
+from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
 from .twr_report import TwrReport
 
 __all__ = ["UwbLinesCodec"]
@@ -31,9 +30,7 @@ class UwbLinesCodec(Codec):
     name = "uwb_lines"
     transport = "lines"
     record = TwrReport
-
-    class Options(Codec.Options):
-        checksum: bool = param(True, description="encoding appends the *HH checksum")
+    Options = CheckedLineOptions
 
     def decode(self, frame: RawFrame) -> list[TwrReport] | None:
         parts = decode_fields(frame.data, ("RANGE",))

@@ -169,17 +169,3 @@ class RfidReaderSensor(Sensor):
         self.ctx.publish("deployments", TagDeployment(t=t, agent=agent, device=device,
                                                       tag_id=tag_id))
 
-
-def read_problem(t: float, agent: str, tag_id: str, reads: int, rssi: float | None) -> str:
-    if not math.isfinite(t):
-        return "non-finite time"
-    if not agent:
-        return "no agent for the reader"
-    if not tag_id:
-        return "empty tag id"
-    if not isinstance(reads, int) or reads < 1:
-        return f"read count {reads!r}"
-    if rssi is not None and not math.isfinite(rssi):
-        return "non-finite RSSI"
-    return ""
-
