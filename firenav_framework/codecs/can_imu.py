@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..contract.params import param
+from ..contract.params import Params, param
 from ..messages import IMU_FLAG_BITS, ImuBlock, RawFrame
 from .base import Codec, EncodedFrame, FrameError
 from .can_database import MessageSpec, load_dbc
@@ -59,7 +59,7 @@ class CanImuCodec(Codec):
         temperature: float = param(25.0, unit="degC", ge=-128, le=127,
                                    description="sensor temperature sent in GYRO frames")
 
-    def __init__(self, options=None, **kw: Any):
+    def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)
         dbc = self.options.dbc
         self.db = load_dbc(None if dbc is None else str(self.resolve(dbc)),

@@ -6,11 +6,11 @@ frame's ``device`` (the port or the sender's ``host:port``).
 """
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
-from ..contract.params import param
+from ..contract.params import Params, param
 from ..formats.imu_csv import UNIT_SCALES
 from ..messages import ImuBlock, RawFrame
 from .base import Codec, EncodedFrame, FrameError
@@ -39,7 +39,7 @@ class ImuLinesCodec(Codec):
         mag_unit: Literal["uT", "gauss", "nT"] = param("uT", description="magnetometer "
                                                        "units of the lines")
 
-    def __init__(self, options=None, **kw):
+    def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)
         o = self.options
         self.scales = (UNIT_SCALES["accel_unit"][o.accel_unit],

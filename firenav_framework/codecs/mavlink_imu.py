@@ -29,7 +29,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..contract.params import param
+from ..contract.params import Params, param
 from ..messages import IMU_FLAG_BITS, ImuBlock, RawFrame
 from .base import Codec, EncodedFrame, FrameError
 from .imu_sample import ImuSample, check_device_times
@@ -92,7 +92,7 @@ class MavlinkImuCodec(Codec):
         raw_mag_scale: float | None = param(None, unit="uT", gt=0,
                                             description="RAW_IMU magnetometer units per count")
 
-    def __init__(self, options=None, **kw: Any):
+    def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)
         messages = self.options.messages
         names = set(messages) | (set(_SCALED) if "SCALED_IMU" in messages else set())

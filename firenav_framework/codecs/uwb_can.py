@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ..contract.params import param
+from ..contract.params import Params, param
 from ..messages import RawFrame
 from .base import Codec, EncodedFrame, FrameError
 from .can_database import MessageSpec, load_dbc
@@ -42,7 +42,7 @@ class UwbCanCodec(Codec):
         dbc: str | None = param(None, description="DBC file of the report, relative to the "
                                 "pipeline file (default: the shipped uwb_twr.dbc)")
 
-    def __init__(self, options=None, **kw: Any):
+    def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)
         dbc = self.options.dbc
         db = load_dbc(None if dbc is None else str(self.resolve(dbc)), shipped="uwb_twr.dbc",

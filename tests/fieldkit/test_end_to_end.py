@@ -7,7 +7,6 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from firenav_framework.cli.replay import replay_document
 from firenav_framework.cli.run import execute

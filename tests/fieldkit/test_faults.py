@@ -10,7 +10,6 @@ import dataclasses
 
 import can
 import numpy as np
-import pytest
 
 from firenav_framework.summary import format_summary
 from firenav_framework.transports.mavlink_link import mavutil
