@@ -25,7 +25,7 @@ it to an agent. Other lines on the link are counted and skipped; broken ones are
 counted and reported once.
 
 Bad data is never fatal: a read of a tag no one deployed (and not in ``known_tags``) is
-passed on, counted (``unknown_tag_reads``) and reported once per tag; a second
+passed on, counted (``unknown_tag_reads``) and reported once per firefighter and tag; a second
 deployment of an id already deployed is a **duplicate tag id**: counted, reported, and
 dropped (the first placement stands).
 """

@@ -147,7 +147,7 @@ class RfidReaderSensor(Sensor):
             self.ctx.count("unknown_tag_reads", p.reads)
             self.ctx.warn_once(p.first, "unknown_tag", f"{p.reader} read tag {p.tag_id}, "
                                "which was not deployed in this run and is not a known tag",
-                               key=p.tag_id)
+                               agent=p.agent, key=p.tag_id)
         self.ctx.count("detections")
         self.ctx.publish("detections", p.detection())
 
