@@ -11,7 +11,7 @@ HIGHRES_IMU per sample at the sample's due time; device time k / R is due at
   received (a UDP packet dropped anywhere on the way);
 * latency to the **published pose**: for every pose zupt_ins publishes, the wall time
   of publication minus the due time of the sample that made it possible. That sample
-  is somewhere in the block foot_imu had just handed over (``block_s`` of samples), so
+  is somewhere in the block foot_imu had just handed over (``frames.block_s`` of samples), so
   two figures bound it: from the block's newest sample (transport, timeline, decoding,
   INS) and from its oldest (plus the wait for the block to fill); p50 / p99, goal p99
   < 100 ms. Also the latency from a frame's due time to its release by the timeline
@@ -96,8 +96,8 @@ sources:
      rotate_mb: {rotate}}}
   - {{id: lines, plugin: udp_lines, bind: "127.0.0.1:{pl}", record_dir: {rec}}}
 sensors:
-  - {{id: imu, plugin: foot_imu, input: mav.raw, axes: [x, -y, -z], block_s: {block},
-     agent_map: {agents}}}
+  - {{id: imu, plugin: foot_imu, input: mav.raw, axes: [x, -y, -z],
+     frames: {{block_s: {block}, agent_map: {agents}}}}}
 estimators:
   - {{id: ins, plugin: zupt_ins, input: imu.imu, imu: {{sample_rate: 200}}}}
 """
@@ -256,7 +256,7 @@ def main() -> None:
     ap.add_argument("--windows", type=float, nargs="+", default=[0.05],
                     help="timeline reorder windows to compare [s]")
     ap.add_argument("--blocks", type=float, nargs="+", default=[0.05],
-                    help="foot_imu block_s values to compare [s]")
+                    help="foot_imu frames.block_s values to compare [s]")
     ap.add_argument("--parsers", nargs="+", default=["datagram"],
                     choices=["datagram", "pymavlink"], help="MAVLink UDP reading: ours (per "
                     "datagram, numba CRC) and/or pymavlink's stream parser (the reference)")

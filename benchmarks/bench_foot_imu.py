@@ -19,13 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from firenav_framework.codecs import get_codec, to_raw_frames
 from firenav_framework.messages import ImuBlock
 from firenav_framework.sources.readers import ReadOptions, find_reader
 from firenav_framework.testing import make_component
 from firenav_plugins.sensors.foot_imu import FootImuSensor
-from firenav_plugins.sensors.imu_can import encode_can_imu, load_imu_dbc
-from firenav_plugins.sensors.imu_frames import to_raw_frames
-from firenav_plugins.sensors.imu_mavlink import encode_mavlink_imu
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 TRIAL = DATA / "pyshoe-vicon" / "2018-02-09-11-22-01.mat"
@@ -65,7 +63,7 @@ def rotate_only(msgs) -> float:
 
 
 def decode_only_can(frames) -> float:
-    db = load_imu_dbc()
+    db = get_codec("can_imu")().db
     t0 = time.perf_counter()
     for f in frames:
         db.decode_message(f.channel, f.data)
@@ -91,8 +89,10 @@ def main() -> None:
     t = np.concatenate([b.time for b in bl]) - bl[0].time[0]
     a = np.concatenate([b.accel for b in bl])
     g = np.concatenate([b.gyro for b in bl])
-    can = to_raw_frames(encode_can_imu(t, a, g), transport="can", device="can0")
-    mav = to_raw_frames(encode_mavlink_imu(t, a, g), transport="mavlink", device="sys1/comp1")
+    walk = ImuBlock.from_arrays(t, a, g, frame="device")
+    can = to_raw_frames(get_codec("can_imu")().encode(walk), transport="can", device="can0")
+    mav = to_raw_frames(get_codec("mavlink_imu")().encode(walk), transport="mavlink",
+                        device="sys1/comp1")
 
     def best(fn, msgs):
         return min(fn(msgs) for _ in range(args.repeat))

@@ -20,7 +20,7 @@ per UWB ranging report. It passes ``check_codec``.
 
 The contract (``firenav_framework/codecs/base.py``):
 
-* ``name``, ``transport`` (``"can"``, ``"mavlink"``, ``"serial"`` (also for UDP lines)),
+* ``name``, ``transport`` (``"can"``, ``"mavlink"``, ``"lines"`` (serial and UDP text lines)),
   ``record`` (what ``decode`` returns a list of) and ``Options`` (its settings).
 * One instance per input: ``decode(frame)`` returns the records a frame completes
   (often none), ``None`` for a frame of another protocol, and raises ``FrameError``
@@ -58,7 +58,7 @@ class MyRangeLineCodec(Codec):
 
     # TODO: the registry name, the transport and the record type.
     name = "my_range_line"
-    transport = "serial"
+    transport = "lines"
     record = RangeReport
 
     class Options(Params):

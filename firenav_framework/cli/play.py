@@ -8,8 +8,10 @@ times faster), in the team layout of ``pipelines/field-live.yaml``
 scenario (order of first appearance in a recording) is MAVLink system N with
 HIGHRES_IMU id 0/1 for the left/right foot, or CAN nodes 2(N-1) (left) and
 2(N-1)+1 (right). Agents named by ``--mavlink-agents`` go over MAVLink, the others
-over CAN; without ``--can`` everyone goes over MAVLink. The assignment of every
-device is printed on stderr as it starts.
+over CAN; without ``--can`` everyone goes over MAVLink. Frames are made by the
+registered IMU codecs ``can_imu`` and ``mavlink_imu`` unless ``--codec LINK=NAME``
+names another (a vendor's). The assignment of every device is printed on stderr as it
+starts.
 """
 from __future__ import annotations
 
@@ -17,12 +19,14 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..codecs import UnknownCodec, get_codec
+from ..codecs.imu_sample import ImuSample
 from ..contract import Context
 from ..messages import ImuBlock
 from ..registry import default_registry
 from ..stats import RunStats
 from ..transports.mavlink_link import mavutil
-from ..transports.player import DevicePlayer, Roster
+from ..transports.player import DEFAULT_CODECS, DevicePlayer, Roster
 from . import UsageError
 
 
@@ -43,6 +47,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "many seconds of a scenario")
     p.add_argument("--block-s", type=float, default=0.01, help="samples are sent in blocks "
                    "of this many seconds (default 0.01: close to a device's own pace)")
+    p.add_argument("--codec", action="append", default=[], metavar="LINK=NAME",
+                   help="the registered IMU codec encoding for a link, e.g. "
+                   "can=acme_can_imu (default: can=can_imu, mavlink=mavlink_imu)")
     p.set_defaults(func=play)
 
 
@@ -72,6 +79,24 @@ def imu_source(name: str, *, seed: int | None = None, duration: float | None = N
         raise UsageError(f"{name}: {exc}") from None
 
 
+def _codecs(specs: list[str]) -> dict[str, str]:
+    """``--codec LINK=NAME`` values as {link: codec name}, each checked to exist."""
+    out = {}
+    for spec in specs:
+        link, sep, name = spec.partition("=")
+        if not sep or link not in DEFAULT_CODECS:
+            raise UsageError(f"--codec {spec}: expected can=NAME or mavlink=NAME")
+        try:
+            codec = get_codec(name)
+        except UnknownCodec as exc:
+            raise UsageError(f"--codec {spec}: {exc}") from None
+        if not codec.serves(link) or not issubclass(codec.record, ImuSample):
+            raise UsageError(f"--codec {spec}: codec {name!r} is not an IMU codec of "
+                             f"{link!r} frames ({codec.transport}, {codec.record.__name__})")
+        out[link] = name
+    return out
+
+
 def play(args: argparse.Namespace) -> int:
     if not (args.can or args.mavlink):
         raise UsageError("give --can and/or --mavlink")
@@ -79,6 +104,7 @@ def play(args: argparse.Namespace) -> int:
     mav_agents = set(filter(None, args.mavlink_agents.split(","))) if args.can else None
     if args.mavlink is None and mav_agents:
         raise UsageError("--mavlink-agents needs --mavlink")
+    codecs = _codecs(args.codec)
     scenario = getattr(src, "scenario", None)
     roster = (Roster.of_scenario(scenario, mav_agents) if scenario is not None
               else Roster(mavlink_agents=mav_agents))
@@ -91,7 +117,7 @@ def play(args: argparse.Namespace) -> int:
         bus = can.Bus(interface=interface, channel=channel, **opts)
     if args.mavlink:
         conn = mavutil().mavlink_connection(args.mavlink, source_system=255)
-    player = DevicePlayer(can_bus=bus, mavlink=conn, speed=args.speed)
+    player = DevicePlayer(can_bus=bus, mavlink=conn, speed=args.speed, codecs=codecs)
 
     def announce(device: str, a) -> None:
         print(f"[play] {device} -> {a}", file=sys.stderr, flush=True)

@@ -8,7 +8,9 @@ package adds more under the entry-point group ``firenav.codecs``::
 
 Both are imported only when a codec is asked for by name (:func:`get_codec`), so a
 broken or slow codec package costs nothing to pipelines that do not use it. The
-contract a codec implements is :class:`~.base.Codec`.
+contract a codec implements is :class:`~.base.Codec`; a sensor picks its codecs with a
+:class:`~.selection.CodecSelection` parameter group. The built-in protocols and their
+options are listed in ``docs/formats/codecs.md``.
 """
 from __future__ import annotations
 
@@ -25,7 +27,14 @@ __all__ = ["Codec", "EncodedFrame", "FrameError", "to_raw_frames", "BUILTIN_CODE
 CODEC_GROUP = "firenav.codecs"
 
 #: The codecs that ship with firenav: name -> "module:Class".
-BUILTIN_CODECS: dict[str, str] = {}
+BUILTIN_CODECS: dict[str, str] = {
+    "can_imu": "firenav_framework.codecs.can_imu:CanImuCodec",
+    "mavlink_imu": "firenav_framework.codecs.mavlink_imu:MavlinkImuCodec",
+    "imu_lines": "firenav_framework.codecs.imu_lines:ImuLinesCodec",
+    "uwb_lines": "firenav_framework.codecs.uwb_lines:UwbLinesCodec",
+    "uwb_can": "firenav_framework.codecs.uwb_can:UwbCanCodec",
+    "rfid_lines": "firenav_framework.codecs.rfid_lines:RfidLinesCodec",
+}
 
 
 class UnknownCodec(LookupError):

@@ -9,31 +9,43 @@ writing a sensor.
 
 Contract of a :class:`Codec` subclass:
 
-* ``name`` (registry key), ``transport`` (``"can"``, ``"mavlink"``, ``"serial"``,
-  ``"udp"``; a line codec serves both of the last two), ``record`` (the type
-  :meth:`Codec.decode` returns a list of) and ``Options`` (a pydantic model of its
-  settings: a DBC file, raw scale factors ...).
+* ``name`` (registry key), ``transport`` (``"can"``, ``"mavlink"``, or ``"lines"``
+  for a text-line codec, which serves the ``"serial"`` and ``"udp"`` links alike; a
+  vendor transport names itself), ``record`` (the type :meth:`Codec.decode` returns a
+  list of) and ``Options`` (a pydantic model of its settings: a DBC file, raw scale
+  factors ...). Every record carries its time ``t`` [s]: the device's clock when the
+  protocol has one, else the frame's time.
 * One instance per input: decoding may keep state across frames (samples spread over
-  several frames, counters that wrap). :meth:`Codec.decode` returns the records a frame
-  completes (often none), ``None`` for a frame that is not of this protocol (another
-  device on the same bus), and raises :class:`FrameError` for a frame that is of this
-  protocol but cannot be decoded. It never raises anything else for bad bytes.
+  several frames, counters that wrap), and so may encoding (sequence counters per
+  address). :meth:`Codec.decode` returns the records a frame completes (often none),
+  ``None`` for a frame that is not of this protocol (another device on the same bus),
+  and raises :class:`FrameError` for a frame that is of this protocol but cannot be
+  decoded. It never raises anything else for bad bytes.
 * Losses that are not one frame's fault (a sample whose frames never all arrived) are
-  counted through the ``count`` callable given at construction.
-* Device addresses: every record names its device as ``<link>/<address>`` (the link is
-  the frame's ``device``, e.g. the CAN bus); :meth:`Codec.encode` takes the address to
-  send as, and :meth:`Codec.addresses` lists those the protocol has (None: any).
+  counted through the ``count`` callable given at construction; file names in the
+  options (a DBC) are resolved by the ``resolve`` callable (a sensor passes
+  ``ctx.resolve``: relative to the pipeline file).
+* Device addresses: a record that comes from an addressed device names it as
+  ``<link>/<address>`` (the link is the frame's ``device``, e.g. the CAN bus;
+  MAVLink addresses ``sys<s>/comp<c>/imu<i>`` are network-wide and stand alone);
+  :meth:`Codec.encode` takes the address to send as, :meth:`Codec.addresses` lists
+  those the protocol has (None: any) and :meth:`Codec.channels` the channels (CAN
+  ids, MAVLink message ids) one address sends on.
 """
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
 from typing import Any, ClassVar, NamedTuple
 
 from ..contract.params import Params
 from ..messages import RawFrame
 
-__all__ = ["Codec", "FrameError", "EncodedFrame", "to_raw_frames"]
+__all__ = ["Codec", "FrameError", "EncodedFrame", "to_raw_frames", "LINE_TRANSPORTS"]
+
+#: The link transports a ``"lines"`` codec serves.
+LINE_TRANSPORTS = ("serial", "udp")
 
 
 class FrameError(ValueError):
@@ -78,11 +90,19 @@ class Codec(ABC):
         """Settings of the protocol (none by default)."""
 
     def __init__(self, options: Params | dict[str, Any] | None = None, *,
-                 count: Callable[[str, int], None] = _no_count):
+                 count: Callable[[str, int], None] = _no_count,
+                 resolve: Callable[[str], Path] = Path):
         if not isinstance(options, Params):
             options = self.Options.model_validate(options or {})
         self.options = options
         self.count = count
+        self.resolve = resolve
+
+    @classmethod
+    def serves(cls, transport: str) -> bool:
+        """Whether this codec reads frames of link ``transport`` (``RawFrame.transport``)."""
+        return transport == cls.transport or (cls.transport == "lines"
+                                               and transport in LINE_TRANSPORTS)
 
     @classmethod
     def summary(cls) -> str:
@@ -106,4 +126,8 @@ class Codec(ABC):
 
     def addresses(self) -> Sequence[str] | None:
         """The device addresses this protocol has (e.g. the nodes of a DBC), None: any."""
+        return None
+
+    def channels(self, address: str) -> Sequence[int | str] | None:
+        """The channels frames sent as ``address`` use (CAN ids ...), None: not fixed."""
         return None

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..messages import (BreadcrumbDrop, Message, Range, RssiReading, TagDeployment,
                         TagDetection)
-from ..sources.readers.imu_csv import write_imu_csv
+from ..formats.imu_csv import write_imu_csv
 from .result import SimulationResult
 
 FORMAT = "firenav-sim-streams"

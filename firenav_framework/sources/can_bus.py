@@ -1,4 +1,4 @@
-"""Live CAN source (python-can): raw frames for the sensor plugins to decode with their DBC."""
+"""Live CAN source (python-can): raw frames for the sensors to decode with their codecs."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -41,6 +41,3 @@ class CanBusSource(LiveSource):
 
     def make_recorder(self, folder: Path, **kw: Any) -> CanRecorder:
         return CanRecorder(folder, "can", suffix=self.params.record_format, **kw)
-
-
-PLUGINS = [CanBusSource]

@@ -1,4 +1,4 @@
-"""Live MAVLink source (pymavlink, MAVLink 2): raw packets for the sensor plugins."""
+"""Live MAVLink source (pymavlink, MAVLink 2): raw packets for the sensors' codecs."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -32,6 +32,3 @@ class MavlinkSource(LiveSource):
 
     def make_recorder(self, folder: Path, **kw: Any) -> TlogRecorder:
         return TlogRecorder(folder, "mavlink", **kw)
-
-
-PLUGINS = [MavlinkSource]

@@ -74,6 +74,3 @@ class RecordingSource(Source):
         dt = self.params.time_offset
         for port, msg in self._reader:
             yield port, (msg.shifted(dt) if dt else msg)
-
-
-PLUGINS = [RecordingSource]

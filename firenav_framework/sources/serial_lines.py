@@ -38,6 +38,3 @@ class SerialLinesSource(LiveSource):
 
     def make_recorder(self, folder: Path, **kw: Any) -> LinesRecorder:
         return LinesRecorder(folder, "serial", **kw)
-
-
-PLUGINS = [SerialLinesSource]

@@ -26,6 +26,3 @@ class UdpLinesSource(LiveSource):
 
     def make_recorder(self, folder: Path, **kw: Any) -> LinesRecorder:
         return LinesRecorder(folder, "udp", **kw)
-
-
-PLUGINS = [UdpLinesSource]

@@ -13,8 +13,10 @@ The pieces, one job each:
   turning what arrives into ``(receive time, native object)`` arrivals and native
   objects into :class:`~firenav_framework.messages.RawFrame` (the same conversion is
   used by the log readers, so a replay sees byte-identical frames).
-* :mod:`.live_source`: the :class:`~firenav_framework.components.Source` base that
-  ties a link, its recorder and its health monitor together.
+* :mod:`.live_source`: the :class:`~firenav_framework.contract.Source` base that
+  ties a link, its recorder and its health monitor together;
+* :mod:`.player`: the other direction, IMU data played onto links as devices would.
 
-Sources never decode payloads: decoding belongs to sensor plugins.
+Sources never decode payloads: wire protocols are codecs (:mod:`firenav_framework.codecs`),
+used by the sensors to decode and by the player to encode.
 """

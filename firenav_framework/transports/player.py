@@ -1,55 +1,71 @@
 """Plays IMU data onto live links as the real devices would (``firenav play``, tests, benchmarks).
 
-Each IMU device is assigned a link by :func:`team_layout`, the layout of
+Frames are made by registered IMU codecs (:mod:`firenav_framework.codecs`), named per
+link: by default ``can_imu`` (the reference foot IMU's DBC) on CAN and ``mavlink_imu``
+(HIGHRES_IMU) on MAVLink; a vendor's codec is one name away. Each IMU device is
+assigned a link and a codec address by :func:`team_layout`, the layout of
 ``pipelines/field-live.yaml``: the firefighter at position N (1-based: the order of
 the scenario's agent list, or of first appearance in a recording) is
 
-* on MAVLink: system id N, component 1, HIGHRES_IMU ``id`` 0 for the left foot and 1
-  for the right (packets from ``firenav_plugins.sensors.imu_mavlink.encode_mavlink_imu``);
-* on CAN: reference-DBC node ``2 (N - 1) + foot`` (left 0, right 1), ids
-  ``0x100 + 0x10 * node`` (ACCEL, GYRO, TIME frames per sample from
-  ``firenav_plugins.sensors.imu_can.encode_can_imu``); the DBC has nodes 0-7, so
-  firefighters 1-4.
+* on MAVLink: ``sys<N>/comp1/imu<foot>`` (system id N, component 1, IMU index 0 for
+  the left foot and 1 for the right);
+* on CAN: the CAN codec's address number ``2 (N - 1) + foot`` (left 0, right 1) in the
+  order of :meth:`~firenav_framework.codecs.Codec.addresses`: the reference DBC has
+  nodes 0-7 (ids ``0x100 + 0x10 * node``), so firefighters 1-4.
 
 MAVLink's body frame is FRD, so blocks in FLU axes (the simulator's default) are sent
 as FRD (y and z negated, exactly); other device axes are sent as they are, as are all
 CAN frames (the reference device sends its case axes). Blocks are sent when the wall
 clock reaches their last sample time (``speed`` times faster), so the field kit
-receives them at a device's pace. Encoding is the sensor plugins' job; the player
-only assigns and moves frames, and :meth:`DevicePlayer.encode` /
-:meth:`DevicePlayer.transmit` are separate so tests can tamper with frames between.
+receives them at a device's pace. The player only assigns and moves frames;
+:meth:`DevicePlayer.encode` and :meth:`DevicePlayer.transmit` are separate so tests
+can tamper with frames between.
 """
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import can
 import numpy as np
 
+from ..codecs import Codec, EncodedFrame, get_codec
 from ..messages import ImuBlock
 
-#: CAN nodes of the reference DBC (plugins/sensors/dbc/firenav_imu.dbc).
-CAN_NODES = 8
+#: The codec of each link unless the player is told otherwise.
+DEFAULT_CODECS = {"can": "can_imu", "mavlink": "mavlink_imu"}
 _FLU_TO_FRD = np.array([1.0, -1.0, -1.0])
+_LINK_NAMES = {"can": "CAN", "mavlink": "MAVLink"}
 
 
 @dataclass(frozen=True)
 class Assignment:
-    """Where one device's samples go: ``("can", node)`` or ``("mavlink", sysid, imu_id)``."""
+    """Where one device's samples go: a link (``"can"``, ``"mavlink"``) and the codec
+    address to send as (``node1``, ``sys3/comp1/imu0``); ``channels`` the ids it uses."""
 
     link: str
-    node: int = 0
-    sysid: int = 1
-    imu_id: int = 0
+    address: str
+    channels: tuple[int | str, ...] = field(default=(), compare=False)
 
     def __str__(self) -> str:
-        return (f"CAN node {self.node} (ids 0x{0x100 + 0x10 * self.node:03X}-"
-                f"0x{0x102 + 0x10 * self.node:03X})" if self.link == "can"
-                else f"MAVLink sys{self.sysid}/comp1 HIGHRES_IMU id {self.imu_id}")
+        return f"{_LINK_NAMES.get(self.link, self.link)} {self.address}{_channel_text(self)}"
+
+
+def _channel_text(a: Assignment) -> str:
+    """`` (ids 0x110-0x112)`` for a run of CAN ids, else the channels listed."""
+    ch = a.channels
+    if not ch:
+        return ""
+    name = "ids" if a.link == "can" else "msgids"
+    if all(isinstance(c, int) for c in ch):
+        if len(ch) > 1 and sorted(ch) == list(range(min(ch), max(ch) + 1)):
+            return f" ({name} 0x{min(ch):03X}-0x{max(ch):03X})"
+        return f" ({name} {', '.join(f'0x{c:03X}' if a.link == 'can' else str(c) for c in ch)})"
+    return f" ({name} {', '.join(map(str, ch))})"
 
 
 def foot_index(device: str, known: dict[str, str] | None = None) -> int | None:
@@ -62,21 +78,23 @@ def foot_index(device: str, known: dict[str, str] | None = None) -> int | None:
     return {"left": 0, "right": 1}.get(side)
 
 
-def team_layout(position: int, foot: int, over_mavlink: bool) -> Assignment:
+def team_layout(position: int, foot: int, over_mavlink: bool,
+                can_addresses: Sequence[str]) -> Assignment:
     """The assignment of the ``foot`` (0 left, 1 right) IMU of the firefighter at
-    1-based ``position`` (see the module docstring)."""
+    1-based ``position`` (see the module docstring); ``can_addresses`` are the CAN
+    codec's device addresses, in order."""
     if position < 1 or foot not in (0, 1):
         raise ValueError(f"position must be >= 1 and foot 0 or 1, got {position}, {foot}")
     if over_mavlink:
         if position > 254:
             raise ValueError(f"MAVLink has system ids 1-254; firefighter {position} has none")
-        return Assignment("mavlink", sysid=position, imu_id=foot)
+        return Assignment("mavlink", f"sys{position}/comp1/imu{foot}")
     node = 2 * (position - 1) + foot
-    if node >= CAN_NODES:
-        raise ValueError(f"the reference CAN layout has nodes 0-{CAN_NODES - 1} (firefighters "
-                         f"1-{CAN_NODES // 2}); firefighter {position} needs node {node}: "
-                         "send it over MAVLink")
-    return Assignment("can", node=node)
+    if node >= len(can_addresses):
+        raise ValueError(f"the CAN codec has {len(can_addresses)} device addresses "
+                         f"(firefighters 1-{len(can_addresses) // 2}); firefighter "
+                         f"{position} needs a {node + 1}th: send it over MAVLink")
+    return Assignment("can", can_addresses[node])
 
 
 @dataclass
@@ -104,7 +122,7 @@ class Roster:
                    feet={f"{a.id}/imu": a.person.foot for a in agents if a.sensors.imu},
                    mavlink_agents=mavlink_agents)
 
-    def assign(self, agent: str, device: str) -> Assignment:
+    def assign(self, agent: str, device: str, can_addresses: Sequence[str]) -> Assignment:
         """The assignment of a device seen for the first time (see :func:`team_layout`)."""
         if agent not in self.order:
             self.order.append(agent)
@@ -118,7 +136,7 @@ class Roster:
             foot = free[0]
         taken.add(foot)
         over_mavlink = self.mavlink_agents is None or agent in self.mavlink_agents
-        return team_layout(self.order.index(agent) + 1, foot, over_mavlink)
+        return team_layout(self.order.index(agent) + 1, foot, over_mavlink, can_addresses)
 
 
 @dataclass
@@ -126,17 +144,37 @@ class DevicePlayer:
     """Sends ImuBlocks of assigned devices onto a CAN bus and/or a MAVLink connection.
 
     ``mavlink`` is anything with ``write(bytes)`` (a pymavlink connection, a socket
-    wrapper). ``assignments`` maps device ids to :class:`Assignment`; blocks of other
-    devices are not sent.
+    wrapper). ``codecs`` names the IMU codec of each link (:data:`DEFAULT_CODECS` for
+    the links it leaves out). ``assignments`` maps device ids to :class:`Assignment`;
+    blocks of other devices are not sent.
     """
 
     can_bus: can.BusABC | None = None
     mavlink: Any = None
     assignments: dict[str, Assignment] = field(default_factory=dict)
     speed: float = 1.0
+    codecs: Mapping[str, str] = field(default_factory=dict)
     sent: dict[str, int] = field(default_factory=lambda: {"can": 0, "mavlink": 0})
     _t0: tuple[float, float] | None = None
-    _seq: dict[str, int] = field(default_factory=dict)
+    _encoders: dict[str, Codec] = field(default_factory=dict)
+
+    def codec(self, link: str) -> Codec:
+        """The encoder of ``link`` (made on first use; it keeps the sequence counters)."""
+        codec = self._encoders.get(link)
+        if codec is None:
+            name = self.codecs.get(link) or DEFAULT_CODECS[link]
+            codec = self._encoders[link] = get_codec(name)()
+        return codec
+
+    def assignment(self, block: ImuBlock, roster: Roster | None) -> Assignment | None:
+        """The assignment of ``block``'s device; a new device is assigned by ``roster``
+        (None: only devices already in :attr:`assignments` are sent)."""
+        a = self.assignments.get(block.device)
+        if a is None and roster is not None:
+            a = roster.assign(block.agent, block.device, self.codec("can").addresses() or ())
+            channels = self.codec(a.link).channels(a.address) or ()
+            a = self.assignments[block.device] = dataclasses.replace(a, channels=tuple(channels))
+        return a
 
     def pace(self, t: float) -> None:
         """Wait until the wall clock reaches data time ``t`` [s] (scaled by ``speed``;
@@ -149,36 +187,24 @@ class DevicePlayer:
         if delay > 0:
             time.sleep(delay)
 
-    def encode(self, block: ImuBlock) -> tuple[str, list] | None:
-        """``(link, frames)`` of one block of an assigned device (None: not assigned).
-
-        Frames are :class:`~firenav_plugins.sensors.imu_frames.EncodedFrame`; sample
-        counters continue across blocks per device.
-        """
+    def encode(self, block: ImuBlock) -> tuple[str, list[EncodedFrame]] | None:
+        """``(link, frames)`` of one block of an assigned device (None: not assigned);
+        sample counters continue across blocks per device."""
         a = self.assignments.get(block.device)
         if a is None:
             return None
-        seq = self._seq.get(block.device, 0)
-        self._seq[block.device] = seq + len(block)
-        t = np.asarray(block.time, float)
-        if a.link == "can":
-            from firenav_plugins.sensors.imu_can import encode_can_imu
-            return "can", encode_can_imu(t, block.accel, block.gyro, node=a.node,
-                                         seq_start=seq)
-        from firenav_plugins.sensors.imu_mavlink import encode_mavlink_imu
-        accel, gyro = block.accel, block.gyro
-        if block.frame == "FLU":
-            accel, gyro = accel * _FLU_TO_FRD, gyro * _FLU_TO_FRD
-        return "mavlink", encode_mavlink_imu(t, accel, gyro, sysid=a.sysid, imu_id=a.imu_id,
-                                             seq_start=seq)
+        if a.link == "mavlink" and block.frame == "FLU":
+            block = dataclasses.replace(block, accel=block.accel * _FLU_TO_FRD,
+                                        gyro=block.gyro * _FLU_TO_FRD, frame="FRD")
+        return a.link, self.codec(a.link).encode(block, address=a.address)
 
-    def transmit(self, link: str, frames: Iterable) -> int:
+    def transmit(self, link: str, frames: Iterable[EncodedFrame]) -> int:
         """Put encoded frames on ``link`` ("can" or "mavlink"); returns how many."""
         n = 0
         if link == "can":
             for f in frames:
                 self.can_bus.send(can.Message(arbitration_id=f.channel, data=f.data,
-                                              is_extended_id=False))
+                                              is_extended_id=f.channel > 0x7FF))
                 n += 1
         else:
             for f in frames:
@@ -197,7 +223,7 @@ class DevicePlayer:
             if stop is not None and stop.is_set():
                 return
             if block.device not in self.assignments and roster is not None:
-                a = self.assignments[block.device] = roster.assign(block.agent, block.device)
+                a = self.assignment(block, roster)
                 if on_assign is not None:
                     on_assign(block.device, a)
             self.pace(block.t)

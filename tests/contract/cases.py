@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from firenav_framework.messages import ImuBlock
-from firenav_framework.sources.readers.imu_csv import write_imu_csv
+from firenav_framework.formats.imu_csv import write_imu_csv
 from firenav_framework.testing import sample_world
 
 
@@ -57,3 +57,33 @@ def setup(kind: str, name: str, tmp: Path) -> dict[str, Any]:
 #: ``address``, ``options``). Every built-in codec needs one (its round trip); a
 #: vendor's codec without one is checked on foreign frames only.
 CODEC_SAMPLES: dict[str, Callable[[], dict[str, Any]]] = {}
+
+
+def _imu_block():
+    import numpy as np
+    from firenav_framework.messages import ImuBlock
+    t = np.arange(1, 21) * 0.005
+    return ImuBlock.from_arrays(t, np.tile([0.12, -0.2, 9.79], (20, 1)),
+                                np.tile([0.01, 0.0, -0.02], (20, 1)), frame="device")
+
+
+def _twr():
+    from firenav_framework.codecs.twr_report import TwrReport
+    return [TwrReport(1.0, "1", "1", 5.25, -80.0, -81.0, 3),
+            TwrReport(1.1, "1", "2", None, None, None, 4)]
+
+
+def _rfid():
+    from firenav_framework.codecs.rfid_lines import RfidEvent
+    return [RfidEvent(1.0, "TAG", "ff1/rfid", "E2BB01", -51.0, 3),
+            RfidEvent(2.0, "DEPLOY", "ff1/rfid", "E2BB02")]
+
+
+CODEC_SAMPLES.update({
+    "can_imu": lambda: {"records": _imu_block(), "address": "node1"},
+    "mavlink_imu": lambda: {"records": _imu_block(), "address": "sys1/comp1/imu0"},
+    "imu_lines": lambda: {"records": _imu_block(), "address": "imu1"},
+    "uwb_can": lambda: {"records": _twr(), "address": "1"},
+    "uwb_lines": lambda: {"records": _twr(), "address": "1"},
+    "rfid_lines": lambda: {"records": _rfid(), "address": "ff1/rfid"},
+})

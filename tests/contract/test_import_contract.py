@@ -14,12 +14,7 @@ REPO = Path(__file__).resolve().parents[2]
 #: Known violations being removed on another branch of the same migration, as
 #: (path, imported module). Each must still occur: a fixed one fails the test below
 #: until it is deleted here, so the list can only shrink.
-KNOWN = {
-    # the device player encodes frames with the sensors' encoders until the codec kind
-    # (firenav_framework/codecs) holds them
-    ("firenav_framework/transports/player.py", "firenav_plugins.sensors.imu_can"),
-    ("firenav_framework/transports/player.py", "firenav_plugins.sensors.imu_mavlink"),
-}
+KNOWN: set[tuple[str, str]] = set()
 
 
 def test_our_tree_keeps_the_import_contract():

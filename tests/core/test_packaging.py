@@ -81,7 +81,7 @@ def test_a_pipeline_runs_with_the_vendor_sensor(vendor_site, tmp_path):
     """Still ACME device, recorded in g and deg/s on FRD axes: converted by the vendor's
     sensor, the INS must report a foot at rest."""
     from firenav_framework.messages import ImuBlock
-    from firenav_framework.sources.readers.imu_csv import write_imu_csv
+    from firenav_framework.formats.imu_csv import write_imu_csv
 
     n, rate = 3000, 100.0
     t = np.arange(n) / rate

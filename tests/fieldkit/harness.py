@@ -147,8 +147,7 @@ def run_live(out: Path, *, speed: float = 2.0, tamper: Tamper = send_as_is,
         player = DevicePlayer(can_bus=bus, mavlink=conn, speed=speed)
         roster = Roster.of_scenario(simulation().scenario, MAV_AGENTS)
         for _, block in simulation().stream(0.01, {"imu"}):
-            if block.device not in player.assignments:
-                player.assignments[block.device] = roster.assign(block.agent, block.device)
+            player.assignment(block, roster)
             player.pace(block.t)
             encoded = player.encode(block)
             tamper(player, block, *encoded)

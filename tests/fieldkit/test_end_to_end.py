@@ -17,6 +17,7 @@ from .conftest import free_port
 from .harness import AGENTS, PIPELINE, assert_matches_offline, offline_tracks, run_live
 
 
+
 def csv_rows_by_agent(path: Path) -> dict[str, list[str]]:
     """Complete rows (ending in a newline) of a csv_tracks file, per agent."""
     rows: dict[str, list[str]] = defaultdict(list)

@@ -194,13 +194,14 @@ def test_a_clock_jump_after_a_late_first_frame_does_not_step_pipeline_time_back(
     (which would drop the following samples as time going backwards)."""
     from firenav_framework.messages import RawFrame
     from firenav_framework.testing import run_component
+    from firenav_framework.codecs.mavlink_imu import MavlinkImuCodec
+    from firenav_framework.messages import ImuBlock
     from firenav_plugins.sensors.foot_imu import FootImuSensor
-    from firenav_plugins.sensors.imu_mavlink import encode_mavlink_imu
     n = 500
     t = np.arange(n) * 0.01
     accel, gyro = np.tile([0.0, 0.0, -9.81], (n, 1)), np.zeros((n, 3))
     device_t = np.where(np.arange(n) < 300, t, t - 3.0)  # reboot at sample 300
-    frames = encode_mavlink_imu(device_t, accel, gyro)
+    frames = MavlinkImuCodec().encode(ImuBlock.from_arrays(device_t, accel, gyro, frame="FRD"))
     # the first frame is read 0.2 s late (a startup stall), the others 5 ms after sending
     recv = 1000.0 + t + np.where(np.arange(n) == 0, 0.2, 0.005)
     raw = [RawFrame(t=r, t_recv=r, transport="mavlink", channel=f.channel, data=f.data)

@@ -8,8 +8,8 @@ import sys
 import numpy as np
 import pytest
 
+from firenav_framework.formats.imu_csv import write_imu_csv
 from firenav_framework.messages import ImuBlock
-from firenav_framework.sources.readers.imu_csv import write_imu_csv
 from firenav_framework.transports.links import enlarge_receive_buffer
 from firenav_framework.transports.mavlink_link import mavutil
 
@@ -80,8 +80,8 @@ def test_play_a_scenario_in_the_field_live_layout(tmp_path):
                            "--mavlink-agents", "ff3,ff4", "--duration", "1", "--speed", "0"],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert "ff1/imu -> CAN node 1 (ids 0x110-0x112)" in proc.stderr
-    assert "ff3/imu -> MAVLink sys3/comp1 HIGHRES_IMU id 1" in proc.stderr
+    assert "ff1/imu -> CAN node1 (ids 0x110-0x112)" in proc.stderr
+    assert "ff3/imu -> MAVLink sys3/comp1/imu1 (msgids 105)" in proc.stderr
     frames = []
     while (m := bus.recv(0.5)) is not None:
         frames.append(m)
@@ -113,14 +113,30 @@ def test_play_a_scenario_in_the_field_live_layout(tmp_path):
 
 
 def test_team_layout_and_its_limits():
+    from firenav_framework.codecs import get_codec
     from firenav_framework.transports.player import Assignment, Roster, team_layout
+    nodes = get_codec("can_imu")().addresses()       # the reference DBC's eight nodes
+    assert nodes == [f"node{n}" for n in range(8)]
     roster = Roster(feet={"ff2/imu": "left"}, mavlink_agents={"ff3"})
-    assert roster.assign("ff1", "ff1/right") == Assignment("can", node=1)
-    assert roster.assign("ff1", "ff1/other") == Assignment("can", node=0)  # the free foot
-    assert roster.assign("ff2", "ff2/imu") == Assignment("can", node=2)
-    assert roster.assign("ff3", "ff3/imu") == Assignment("mavlink", sysid=3, imu_id=0)
+    assert roster.assign("ff1", "ff1/right", nodes) == Assignment("can", "node1")
+    assert roster.assign("ff1", "ff1/other", nodes) == Assignment("can", "node0")  # free foot
+    assert roster.assign("ff2", "ff2/imu", nodes) == Assignment("can", "node2")
+    assert roster.assign("ff3", "ff3/imu", nodes) == Assignment("mavlink", "sys3/comp1/imu0")
     with pytest.raises(ValueError, match="no place for a third"):
-        roster.assign("ff1", "ff1/hand")
-    with pytest.raises(ValueError, match="send it over MAVLink"):
-        team_layout(5, 0, over_mavlink=False)
-    assert team_layout(5, 1, over_mavlink=True) == Assignment("mavlink", sysid=5, imu_id=1)
+        roster.assign("ff1", "ff1/hand", nodes)
+    assert team_layout(4, 1, False, nodes) == Assignment("can", "node7")
+    with pytest.raises(ValueError, match="8 device addresses .* send it over MAVLink"):
+        team_layout(5, 0, False, nodes)
+    assert team_layout(5, 1, True, nodes) == Assignment("mavlink", "sys5/comp1/imu1")
+
+
+def test_play_refuses_a_codec_that_cannot_send_imu_on_the_link(tmp_path):
+    path = write_imu_csv(tmp_path / "walk.csv", _blocks())
+    for spec, reason in (("can=uwb_can", "is not an IMU codec"),
+                         ("can=mavlink_imu", "is not an IMU codec"),
+                         ("can=can_imu_v2", "no codec named 'can_imu_v2'"),
+                         ("serial=imu_lines", "expected can=NAME or mavlink=NAME")):
+        proc = subprocess.run([sys.executable, "-m", "firenav_framework", "play", str(path),
+                               "--mavlink", "udpout:127.0.0.1:9", "--codec", spec],
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode != 0 and reason in proc.stderr, (spec, proc.stderr)

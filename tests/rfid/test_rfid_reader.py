@@ -4,11 +4,21 @@ from __future__ import annotations
 import pytest
 
 from firenav_framework import RawFrame, TagDeployment, TagDetection, Tick
+from firenav_framework.codecs import FrameError
+from firenav_framework.codecs.rfid_lines import RfidEvent, RfidLinesCodec
 from firenav_framework.testing import check_plugin, make_component
-from firenav_plugins.sensors.rfid_reader import (RfidLine, RfidReaderSensor, decode_rfid_line,
-                                                 encode_rfid_line)
-from firenav_plugins.sensors.rfid_reader import LineError
+from firenav_plugins.sensors.rfid_reader import RfidReaderSensor
 from tests.contract.known import known
+
+
+def encode_rfid_line(event: RfidEvent, checksum: bool = True) -> bytes:
+    [frame] = RfidLinesCodec({"checksum": checksum}).encode([event])
+    return frame.data
+
+
+def decode_rfid_line(data: bytes, t: float = 0.0) -> RfidEvent | None:
+    events = RfidLinesCodec().decode(RawFrame(t=t, transport="serial", channel="", data=data))
+    return None if events is None else events[0]
 
 
 def reader(**params):
@@ -89,9 +99,9 @@ def test_duplicate_tag_ids_are_counted_and_the_first_placement_stands():
 
 
 def test_reader_lines_round_trip_and_drive_the_same_chain():
-    lines = [RfidLine("DEPLOY", "ff2/rfid", "E2AA"),
-             RfidLine("TAG", "ff2/rfid", "E2AA", -48.5, 3),
-             RfidLine("TAG", "ff2/rfid", "E2AA", None)]
+    lines = [RfidEvent(0.0, "DEPLOY", "ff2/rfid", "E2AA"),
+             RfidEvent(0.0, "TAG", "ff2/rfid", "E2AA", -48.5, 3),
+             RfidEvent(0.0, "TAG", "ff2/rfid", "E2AA", None)]
     for line in lines:
         assert decode_rfid_line(encode_rfid_line(line)) == line
         assert decode_rfid_line(encode_rfid_line(line, checksum=False) + b"\r\n") == line
@@ -119,7 +129,7 @@ def test_reader_lines_round_trip_and_drive_the_same_chain():
     (b"TAG,\xff\xfe", "ASCII"),
 ])
 def test_broken_lines_are_named(line, what):
-    with pytest.raises(LineError, match=what):
+    with pytest.raises(FrameError, match=what):
         decode_rfid_line(line)
 
 

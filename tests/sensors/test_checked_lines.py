@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from plugins.sensors.checked_lines import LineProblem, checksum, decode_fields, encode_fields
+from firenav_framework.codecs import FrameError
+from firenav_framework.codecs.checked_lines import checksum, decode_fields, encode_fields
 
 
 def test_checksum_is_the_xor_of_every_byte():
@@ -23,12 +24,12 @@ def test_other_kinds_are_not_ours_and_broken_lines_say_why():
     assert decode_fields(b"$GPGGA,1,2*00", ("TAG", "RANGE")) is None
     line = bytearray(encode_fields(["RANGE", "7", "A0", "1000", "", ""]))
     line[8] ^= 0x01                        # one flipped bit in the body
-    with pytest.raises(LineProblem) as e:
+    with pytest.raises(FrameError) as e:
         decode_fields(bytes(line), ("RANGE",))
-    assert e.value.kind == "checksum"
-    with pytest.raises(LineProblem) as e:
+    assert e.value.code == "checksum_errors"
+    with pytest.raises(FrameError) as e:
         decode_fields(b"RANGE,7,A0,1000*ZZ", ("RANGE",))
-    assert e.value.kind == "checksum"
-    with pytest.raises(LineProblem) as e:
+    assert e.value.code == "checksum_errors"
+    with pytest.raises(FrameError) as e:
         decode_fields(b"RANGE,\xff\xfe", ("RANGE",))
-    assert e.value.kind == "not_ascii"
+    assert e.value.code == "bad_frames" and "ASCII" in str(e.value)

@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from firenav_framework.codecs import to_raw_frames
+from firenav_framework.codecs.can_imu import CanImuCodec
+from firenav_framework.codecs.imu_lines import ImuLinesCodec
+from firenav_framework.codecs.mavlink_imu import MavlinkImuCodec
 from firenav_framework.messages import IMU_FLAG_BITS, ImuBlock, RawFrame
 from firenav_framework.testing import check_plugin, make_component
 from firenav_framework.yaml_locations import ConfigError
 from firenav_plugins.sensors.foot_imu import FootImuSensor
-from firenav_plugins.sensors.imu_can import encode_can_imu
-from firenav_plugins.sensors.imu_frames import encode_imu_lines, to_raw_frames
-from firenav_plugins.sensors.imu_mavlink import encode_mavlink_imu
+from firenav_plugins.sensors.foot_imu.clock import DeviceClock
 
 G = 9.81
 FRD = ["x", "-y", "-z"]
@@ -36,6 +38,19 @@ def blocks(t, accel, gyro, size=20, agent="ff1", device="ff1/imu", **kw):
     return [ImuBlock.from_arrays(t[i:i + size], accel[i:i + size], gyro[i:i + size],
                                  agent=agent, device=device, frame="device", **kw)
             for i in range(0, len(t), size)]
+
+
+def device_block(t, accel, gyro) -> ImuBlock:
+    return ImuBlock.from_arrays(t, accel, gyro, frame="device")
+
+
+def encode_can_imu(t, accel, gyro, node=0):
+    return CanImuCodec().encode(device_block(t, accel, gyro), address=f"node{node}")
+
+
+def encode_mavlink_imu(t, accel, gyro, imu_id=0, send="HIGHRES_IMU", **options):
+    return MavlinkImuCodec({"send": send, **options}).encode(
+        device_block(t, accel, gyro), address=f"sys1/comp1/imu{imu_id}")
 
 
 def run(params=None, messages=(), **kw):
@@ -92,7 +107,7 @@ def test_bad_axes_are_refused_with_a_clear_reason(axes, message):
 def test_units_g_and_deg_per_s_are_converted():
     block = ImuBlock.from_arrays([0.0], [[0.0, 0.5, 1.0]], [[90.0, 0.0, -180.0]], agent="ff1",
                                  device="d", frame="d")
-    out, _, _ = run({"axes": ["x", "y", "z"], "accel_unit": "g", "gyro_unit": "deg/s"}, [block])
+    out, _, _ = run({"axes": ["x", "y", "z"], "units": {"accel": "g", "gyro": "deg/s"}}, [block])
     np.testing.assert_allclose(out[0].accel[0], [0.0, 0.5 * 9.80665, 9.80665])
     np.testing.assert_allclose(out[0].gyro[0], [np.pi / 2, 0.0, -np.pi])
 
@@ -158,7 +173,7 @@ def test_bad_calibration_files_fail_with_file_line_and_reason(tmp_path, text, wh
 
 def test_saturation_above_range_is_refused():
     with pytest.raises(ValidationError, match="must not exceed accel_range"):
-        FootImuSensor.Params(accel_saturation=500.0, accel_range=400.0)
+        FootImuSensor.Params(screening={"accel_saturation": 500.0, "accel_range": 400.0})
 
 
 # -- bad samples -------------------------------------------------------------------------
@@ -191,7 +206,7 @@ def test_saturated_samples_are_kept_flagged_and_counted():
     t, accel, gyro = motion(100)
     accel[7, 2] = -156.9      # 16 g full scale
     gyro[8, 1] = 34.9
-    out, diags, counts = run({"accel_saturation": 156.9, "gyro_saturation": 34.9},
+    out, diags, counts = run({"screening": {"accel_saturation": 156.9, "gyro_saturation": 34.9}},
                              blocks(t, accel, gyro))
     tk, _, _, flags = joined(out)
     assert len(tk) == 100 and counts == {"saturated_samples": 2}
@@ -234,7 +249,7 @@ def test_a_single_corrupt_timestamp_is_dropped_not_the_data_after_it(where):
 def test_gaps_are_flagged_on_the_next_sample_counted_and_reported_with_length():
     t, accel, gyro = motion(200)
     keep = np.r_[0:50, 62:200]          # 12 samples lost: a 65 ms step
-    out, diags, counts = run({"gap": 0.05}, blocks(t[keep], accel[keep], gyro[keep]))
+    out, diags, counts = run({"screening": {"gap": 0.05}}, blocks(t[keep], accel[keep], gyro[keep]))
     tk, _, _, flags = joined(out)
     assert counts == {"gaps": 1} and len(tk) == 188
     assert np.flatnonzero(flags & GAP).tolist() == [50]
@@ -287,7 +302,7 @@ def test_accel_in_g_declared_as_si_is_diagnosed():
     t, accel, gyro = motion(200)
     _, diags, _ = run({"axes": FRD}, blocks(t, accel / 9.80665, gyro))
     assert "imu_units_check" in [d.code for d in diags]
-    assert "accel_unit: g" in next(d.text for d in diags if d.code == "imu_units_check")
+    assert "units: {accel: g}" in next(d.text for d in diags if d.code == "imu_units_check")
 
 
 # -- frame inputs ------------------------------------------------------------------------
@@ -298,8 +313,8 @@ def test_can_frames_become_flu_blocks_equal_to_the_samples_within_quantisation()
                            device="can0")
     receive = [RawFrame(t=f.t - 990.0 + 0.002 * np.sin(i), transport="can", channel=f.channel,
                         data=f.data, device="can0") for i, f in enumerate(frames)]  # jitter
-    out, diags, counts = run({"axes": FRD, "agent_map": {"can0/node2": "ff3/left_foot"}},
-                             receive)
+    out, diags, counts = run({"axes": FRD,
+                              "frames": {"agent_map": {"can0/node2": "ff3/left_foot"}}}, receive)
     assert counts == {} and diags == []
     assert {(b.agent, b.device) for b in out} == {("ff3", "ff3/left_foot")}
     assert all(b.time[-1] - b.time[0] < 0.1 for b in out)
@@ -316,8 +331,8 @@ def test_mavlink_highres_ids_tell_the_two_feet_apart():
     right = encode_mavlink_imu(t, accel + 1.0, gyro, imu_id=1)
     frames = to_raw_frames([f for pair in zip(left, right) for f in pair],
                            transport="mavlink", device="sys1/comp1")
-    out, _, counts = run({"axes": FRD, "agent_map": {"sys1/comp1/imu0": "ff1/left",
-                                                     "sys1/comp1/imu1": "ff1/right"}}, frames)
+    out, _, counts = run({"axes": FRD, "frames": {"agent_map": {
+        "sys1/comp1/imu0": "ff1/left", "sys1/comp1/imu1": "ff1/right"}}}, frames)
     assert counts == {}
     by_device = {d: [b for b in out if b.device == d] for d in ("ff1/left", "ff1/right")}
     np.testing.assert_allclose(joined(by_device["ff1/right"])[1]
@@ -330,7 +345,7 @@ def test_two_unmapped_devices_are_not_merged_into_one_stream():
     frames = to_raw_frames(encode_can_imu(t, accel, gyro, node=0)
                            + encode_can_imu(t, accel, gyro, node=1), transport="can",
                            device="can0")
-    out, diags, counts = run({"default_agent": "ff2"}, frames)
+    out, diags, counts = run({"frames": {"default_agent": "ff2"}}, frames)
     assert {b.device for b in out} == {"ff2/imu", "ff2/can0/node1"}
     assert counts == {} and [d.code for d in diags] == ["imu_device_clash"]
 
@@ -339,15 +354,18 @@ def test_frame_agent_from_the_source_is_used_when_agent_map_is_silent():
     t, accel, gyro = motion(40)
     frames = [RawFrame(t=f.t, agent="ff5", transport="can", channel=f.channel, data=f.data,
                        device="can0") for f in encode_can_imu(t, accel, gyro, node=4)]
-    out, _, _ = run({"agent_map": {"can0/node0": "ff1/left"}}, frames)
+    out, _, _ = run({"frames": {"agent_map": {"can0/node0": "ff1/left"}}}, frames)
     assert {(b.agent, b.device) for b in out} == {("ff5", "ff5/imu")}
 
 
 def test_text_lines_in_device_units():
     t, accel, gyro = motion(50)
-    frames = to_raw_frames(encode_imu_lines(t, accel / 9.80665, np.degrees(gyro)),
-                           transport="serial", device="/dev/ttyUSB0")
-    out, _, counts = run({"axes": FRD, "accel_unit": "g", "gyro_unit": "deg/s"}, frames)
+    units = {"accel_unit": "g", "gyro_unit": "deg/s"}
+    lines = ImuLinesCodec(units).encode(device_block(t, accel, gyro))
+    assert float(lines[0].data.split(b",")[3]) == accel[0, 2] / 9.80665   # in g on the wire
+    frames = to_raw_frames(lines, transport="serial", device="/dev/ttyUSB0")
+    out, _, counts = run({"axes": FRD, "frames": {"codec_options": {"imu_lines": units}}},
+                         frames)
     tk, a, g, _ = joined(out)
     assert counts == {} and out[0].device == "ff1/imu"
     np.testing.assert_allclose(a, accel * [1, -1, -1], rtol=1e-12)
@@ -357,7 +375,7 @@ def test_text_lines_in_device_units():
 def test_bad_frames_are_counted_and_skipped_never_raised():
     t, accel, gyro = motion(10)
     good = to_raw_frames(encode_mavlink_imu(t, accel, gyro), transport="mavlink", device="s")
-    raw_imu = encode_mavlink_imu(t[:2], accel[:2], gyro[:2], message="RAW_IMU",
+    raw_imu = encode_mavlink_imu(t[:2], accel[:2], gyro[:2], send="RAW_IMU",
                                  raw_accel_scale=0.01, raw_gyro_scale=0.001)
     bad = [
         RawFrame(t=0.01, transport="mavlink", channel=105, data=good[0].data[:-1] + b"\x00"),
@@ -395,3 +413,63 @@ def test_a_device_reboot_reanchors_its_clock_and_is_reported():
 def test_conformance_with_the_plugin_harness():
     t, accel, gyro = motion(20)
     check_plugin(FootImuSensor, {"axes": FRD}, sample_input=[("in", b) for b in blocks(t, accel, gyro)])
+
+
+# -- codecs by name --------------------------------------------------------------------
+
+def test_frames_are_decoded_by_the_codecs_named_per_transport():
+    t, accel, gyro = motion(40)
+    frames = to_raw_frames(encode_can_imu(t, accel, gyro, node=1), transport="can",
+                           device="can0")
+    out, _, counts = run({"frames": {"codecs": {"mavlink": "mavlink_imu"}}}, frames)
+    assert out == [] and counts == {"frames_ignored": len(frames)}   # CAN: no codec named
+    out, _, counts = run({"frames": {"codecs": {"can": "can_imu"}}}, frames)
+    assert sum(len(b) for b in out) == 40 and counts == {}
+
+
+@pytest.mark.parametrize("frames, message", [
+    ({"codecs": {"can": "can_imu_v2"}}, "no codec named 'can_imu_v2'; did you mean 'can_imu'"),
+    ({"codecs": {"can": "mavlink_imu"}}, "reads 'mavlink' frames, not 'can'"),
+    ({"codecs": {"can": "uwb_can"}}, "decodes TwrReport records; this sensor reads ImuSample"),
+    ({"codec_options": {"uwb_lines": {}}}, "options for 'uwb_lines', which no transport uses"),
+    ({"codec_options": {"mavlink_imu": {"raw_accel_scale": -1}}},
+     "mavlink_imu: raw_accel_scale: Input should be greater than 0"),
+    ({"codec_options": {"can_imu": {"dbcfile": "x.dbc"}}}, "dbcfile: Extra inputs"),
+])
+def test_codec_choices_are_checked_against_the_registry(frames, message):
+    with pytest.raises(ValidationError, match=message):
+        FootImuSensor.Params(frames=frames)
+
+
+def test_a_dbc_named_in_the_codec_options_is_read_relative_to_the_pipeline(tmp_path):
+    from firenav_framework.codecs.can_database import shipped_dbc
+    text = shipped_dbc("firenav_imu.dbc").read_text()
+    (tmp_path / "moved.dbc").write_text(text.replace("BO_ 272 IMU1_ACCEL", "BO_ 1536 IMU1_ACCEL"))
+    t, accel, gyro = motion(30)
+    codec = CanImuCodec({"dbc": "moved.dbc"}, resolve=lambda p: tmp_path / p)
+    assert codec.channels("node1") == [0x111, 0x112, 0x600]
+    frames = to_raw_frames(codec.encode(device_block(t, accel, gyro), address="node1"),
+                           transport="can", device="can0")
+    params = {"frames": {"codec_options": {"can_imu": {"dbc": "moved.dbc"}}}}
+    out, _, counts = run(params, frames, base_dir=tmp_path)
+    assert sum(len(b) for b in out) == 30 and counts == {}
+    out, _, counts = run({}, frames)                  # the shipped DBC: 0x600 is unknown
+    assert out == [] and counts["unknown_can_ids"] == 30
+
+
+# -- device clock ----------------------------------------------------------------------
+
+def test_device_clock_keeps_device_time_and_reanchors_only_on_real_jumps():
+    clock = DeviceClock(resync=1.0)
+    assert clock.to_pipeline(100.0, 5.0) == (5.0, False)
+    assert clock.to_pipeline(100.005, 5.013) == (pytest.approx(5.005), False)  # jittery frame
+    # a 3 s link stall then a backlog: device time continues, no re-anchor
+    assert clock.to_pipeline(100.010, 8.0) == (pytest.approx(5.010), False)
+    # reboot: device clock restarts near 0
+    t, resynced = clock.to_pipeline(0.002, 8.5)
+    assert resynced and t == pytest.approx(8.5)
+    assert clock.to_pipeline(0.007, 8.505) == (pytest.approx(8.505), False)
+    # device clock leaps 50 s ahead while frames advance 5 ms
+    t, resynced = clock.to_pipeline(50.0, 8.51)
+    assert resynced and t == pytest.approx(8.51)
+    assert clock.to_pipeline(float("nan"), 8.52)[1] is False

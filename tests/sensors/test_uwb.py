@@ -7,12 +7,30 @@ import numpy as np
 import pytest
 
 from firenav_framework import Range, RawFrame, Tick
+from firenav_framework.codecs import FrameError
+from firenav_framework.codecs.twr_report import TwrReport
+from firenav_framework.codecs.uwb_can import UwbCanCodec
+from firenav_framework.codecs.uwb_lines import UwbLinesCodec
 from firenav_framework.testing import check_plugin, make_component
-from firenav_plugins.sensors.imu_frames import FrameError
-from firenav_plugins.sensors.uwb import (AnchorBias, TwrReport, UwbSensor, decode_uwb_can,
-                                         decode_uwb_line, encode_uwb_can, encode_uwb_line)
+from firenav_plugins.sensors.uwb import UwbSensor
+from firenav_plugins.sensors.uwb.bias import AnchorBias
 
 MAP = {"tags": {"1": "ff1", "2": "ff2"}, "anchors": {"1": "uwb_start"}}
+
+
+def encode_uwb_line(report: TwrReport, checksum: bool = True) -> bytes:
+    [frame] = UwbLinesCodec({"checksum": checksum}).encode([report])
+    return frame.data
+
+
+def decode_uwb_line(data: bytes, t: float = 0.0):
+    reports = UwbLinesCodec().decode(RawFrame(t=t, transport="serial", channel="", data=data))
+    return None if reports is None else reports[0]
+
+
+def decode_uwb_can(frame_id, data, t: float = 0.0):
+    reports = UwbCanCodec().decode(RawFrame(t=t, transport="can", channel=frame_id, data=data))
+    return None if reports is None else reports[0]
 
 
 def line_frame(t, report, **kw) -> RawFrame:
@@ -21,7 +39,8 @@ def line_frame(t, report, **kw) -> RawFrame:
 
 
 def can_frame(t, report) -> RawFrame:
-    f = encode_uwb_can(report, t)
+    [f] = UwbCanCodec().encode([report._replace(t=t)])
+    assert f.t == t
     return RawFrame(t=t, transport="can", channel=f.channel, data=f.data, device="can0")
 
 
@@ -35,14 +54,14 @@ def feed(params, items):
 # -- codecs ---------------------------------------------------------------------------
 
 def test_text_line_round_trip_and_format():
-    r = TwrReport("1", "uwb_start", 12.345, -81.5, -84.0, 17)
+    r = TwrReport(0.0, "1", "uwb_start", 12.345, -81.5, -84.0, 17)
     line = encode_uwb_line(r)
     assert line.startswith(b"RANGE,1,uwb_start,12345,-81.5,-84.0,17*")
     assert decode_uwb_line(line) == r
     assert decode_uwb_line(encode_uwb_line(r, checksum=False)) == r
     # optional fields: no powers, no sequence number, a failed exchange
-    assert decode_uwb_line(b"RANGE,3,7,,,") == TwrReport("3", "7", None)
-    assert decode_uwb_line(b"RANGE,3,7,-1,-90,-95\r\n") == TwrReport("3", "7", None, -90.0, -95.0)
+    assert decode_uwb_line(b"RANGE,3,7,,,") == TwrReport(0.0, "3", "7", None)
+    assert decode_uwb_line(b"RANGE,3,7,-1,-90,-95\r\n") == TwrReport(0.0, "3", "7", None, -90.0, -95.0)
     assert decode_uwb_line(b"$GPGGA,foo") is None          # another device's line
 
 
@@ -63,16 +82,16 @@ def test_broken_text_lines_raise_a_counted_error(data, code):
 
 
 def test_can_frame_round_trip_follows_the_dbc():
-    r = TwrReport("2", "1", 23.456, -92.5, -99.0, 250)
-    f = encode_uwb_can(r)
+    r = TwrReport(0.0, "2", "1", 23.456, -92.5, -99.0, 250)
+    [f] = UwbCanCodec().encode([r])
     assert f.channel == 0x380 and len(f.data) == 8
     # little-endian layout of docs/formats/uwb.md: tag, anchor, range (24 bit), powers, seq
     assert f.data[0] == 2 and f.data[1] == 1
     assert int.from_bytes(f.data[2:5], "little") == 23456
     assert f.data[5] == int((-92.5 + 128) / 0.5) and f.data[7] == 250
     assert decode_uwb_can(f.channel, f.data) == r
-    failed = encode_uwb_can(TwrReport("2", "1", None))
-    assert decode_uwb_can(failed.channel, failed.data) == TwrReport("2", "1", None, None, None, 0)
+    [failed] = UwbCanCodec().encode([TwrReport(0.0, "2", "1", None)])
+    assert decode_uwb_can(failed.channel, failed.data) == TwrReport(0.0, "2", "1", None, None, None, 0)
     assert decode_uwb_can(0x100, f.data) is None             # an IMU frame on the same bus
     with pytest.raises(FrameError):
         decode_uwb_can(0x380, f.data[:5])
@@ -81,9 +100,9 @@ def test_can_frame_round_trip_follows_the_dbc():
 # -- conditioning ---------------------------------------------------------------------
 
 def test_decoded_ranges_become_range_messages_with_node_ids():
-    rec, counts = feed(MAP, [("raw", line_frame(1.0, TwrReport("1", "1", 4.0, -80, -81, 0))),
-                             ("raw", can_frame(1.5, TwrReport("2", "1", 6.0, -80, -81, 0))),
-                             ("raw", line_frame(2.0, TwrReport("9", "4", 3.0, -80, -81)))])
+    rec, counts = feed(MAP, [("raw", line_frame(1.0, TwrReport(0.0, "1", "1", 4.0, -80, -81, 0))),
+                             ("raw", can_frame(1.5, TwrReport(0.0, "2", "1", 6.0, -80, -81, 0))),
+                             ("raw", line_frame(2.0, TwrReport(0.0, "9", "4", 3.0, -80, -81)))])
     out = rec.on("range")
     assert [(m.agent, m.a, m.b, m.range_m, m.nlos, m.sigma_m) for m in out] == [
         ("ff1", "ff1", "uwb_start", 4.0, False, 0.1),
@@ -99,15 +118,15 @@ def test_bias_calibration_constant_scale_and_power_table():
     assert bias.correct(1.01 * 10.0 + 0.10 + 0.20, -120.0) == pytest.approx(10.0)   # held
     assert bias.correct(1.01 * 10.0 + 0.10, None) == pytest.approx(10.0)
     rec, _ = feed({**MAP, "bias": {"uwb_start": {"offset_m": 0.25}, "*": {"scale": 1.02}}},
-                  [("raw", line_frame(1.0, TwrReport("1", "1", 5.25, -80, -81))),
-                   ("raw", line_frame(1.0, TwrReport("1", "7", 5.10, -80, -81)))])
+                  [("raw", line_frame(1.0, TwrReport(0.0, "1", "1", 5.25, -80, -81))),
+                   ("raw", line_frame(1.0, TwrReport(0.0, "1", "7", 5.10, -80, -81)))])
     assert [m.range_m for m in rec.on("range")] == pytest.approx([5.0, 5.0])
 
 
 def test_first_path_power_well_below_total_power_flags_nlos():
-    rec, counts = feed(MAP, [("raw", line_frame(1.0, TwrReport("1", "1", 5.0, -80.0, -85.9))),
-                             ("raw", line_frame(2.0, TwrReport("1", "1", 5.1, -80.0, -86.1))),
-                             ("raw", line_frame(3.0, TwrReport("1", "1", 5.2, -80.0, None)))])
+    rec, counts = feed(MAP, [("raw", line_frame(1.0, TwrReport(0.0, "1", "1", 5.0, -80.0, -85.9))),
+                             ("raw", line_frame(2.0, TwrReport(0.0, "1", "1", 5.1, -80.0, -86.1))),
+                             ("raw", line_frame(3.0, TwrReport(0.0, "1", "1", 5.2, -80.0, None)))])
     assert [(m.nlos, m.sigma_m) for m in rec.on("range")] == [(False, 0.1), (True, 0.5),
                                                               (False, 0.1)]
     assert counts["nlos_suspect"] == 1
@@ -116,15 +135,15 @@ def test_first_path_power_well_below_total_power_flags_nlos():
 def test_impossible_range_jumps_are_dropped_until_the_link_relocks():
     t = np.arange(10.0)
     truth = 5.0 + 1.0 * t                       # walking away at 1 m/s
-    reports = [TwrReport("1", "1", float(r), -80, -81) for r in truth]
-    reports[3] = TwrReport("1", "1", 40.0, -80, -81)        # a multipath blunder
+    reports = [TwrReport(0.0, "1", "1", float(r), -80, -81) for r in truth]
+    reports[3] = TwrReport(0.0, "1", "1", 40.0, -80, -81)        # a multipath blunder
     items = [("raw", line_frame(float(tk), r)) for tk, r in zip(t, reports)]
     rec, counts = feed(MAP, items)
     assert [m.range_m for m in rec.on("range")] == [r for k, r in enumerate(truth) if k != 3]
     assert counts["outliers"] == 1
     # a real jump (the tag was moved to another anchor's label): three consistent
     # reports re-lock the link
-    jump = [("raw", line_frame(10.0 + k, TwrReport("1", "1", 60.0 + 0.1 * k, -80, -81)))
+    jump = [("raw", line_frame(10.0 + k, TwrReport(0.0, "1", "1", 60.0 + 0.1 * k, -80, -81)))
             for k in range(4)]
     rec, counts = feed(MAP, items + jump)
     assert [m.range_m for m in rec.on("range")][-2:] == pytest.approx([60.2, 60.3])
@@ -132,13 +151,13 @@ def test_impossible_range_jumps_are_dropped_until_the_link_relocks():
 
 
 def test_dropouts_failures_and_lost_reports_are_reported():
-    items = [("raw", line_frame(1.0, TwrReport("1", "1", 5.0, -80, -81, 10))),
-             ("raw", line_frame(1.2, TwrReport("1", "1", None, None, None, 11))),
-             ("raw", line_frame(1.4, TwrReport("1", "1", 5.1, -80, -81, 14))),
+    items = [("raw", line_frame(1.0, TwrReport(0.0, "1", "1", 5.0, -80, -81, 10))),
+             ("raw", line_frame(1.2, TwrReport(0.0, "1", "1", None, None, None, 11))),
+             ("raw", line_frame(1.4, TwrReport(0.0, "1", "1", 5.1, -80, -81, 14))),
              ("tick", Tick(t=3.0, period=1.0)),
              ("tick", Tick(t=5.0, period=1.0)),
              ("tick", Tick(t=6.0, period=1.0)),
-             ("raw", line_frame(6.5, TwrReport("1", "1", 8.0, -80, -81, 15)))]
+             ("raw", line_frame(6.5, TwrReport(0.0, "1", "1", 8.0, -80, -81, 15)))]
     rec, counts = feed(MAP, items)
     assert counts["ranging_failed"] == 1 and counts["lost_reports"] == 2
     diags = rec.on("diagnostics")
@@ -175,7 +194,8 @@ def test_bad_dbc_path_fails_at_construction(tmp_path):
     dbc = tmp_path / "x.dbc"
     dbc.write_text('VERSION ""\n\nBU_: A\n\nBO_ 1 OTHER: 8 A\n SG_ X : 0|8@1+ (1,0) [0|255] "" A\n')
     with pytest.raises(ValueError, match="no UWB_TWR_REPORT"):
-        make_component(UwbSensor, {"dbc": str(dbc)})
+        make_component(UwbSensor, {"frames": {"codec_options": {"uwb_can": {"dbc": "x.dbc"}}}},
+                       base_dir=tmp_path)
 
 
 @pytest.mark.parametrize("jump, flagged", [(1.0, True), (-1.0, False), (0.1, False)])

@@ -13,7 +13,7 @@ from firenav_framework.simulator import simulate
 from firenav_framework.simulator.output import write_simulation
 from firenav_framework.simulator.scenario import load_scenario, load_scenario_text
 from firenav_framework.sources.readers import ReadOptions, find_reader
-from firenav_framework.sources.readers.base import ReaderError
+from firenav_framework.sources.readers import ReaderError
 from firenav_framework.yaml_locations import ConfigError
 
 GOOD = """\

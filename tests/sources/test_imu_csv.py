@@ -6,7 +6,7 @@ import pytest
 
 from firenav_framework.messages import ImuBlock
 from firenav_framework.sources.readers import ReaderError, ReadOptions, imu_blocks
-from firenav_framework.sources.readers.imu_csv import ImuCsvReader, write_imu_csv
+from firenav_framework.formats.imu_csv import ImuCsvReader, write_imu_csv
 
 
 def make_blocks(n=500, seed=3, agent="ff1", device="ff1/imu", mag=True, t0=100.0):
@@ -114,7 +114,7 @@ def test_writer_refuses_mixed_frames_and_unknown_units(tmp_path):
 
 
 def test_long_files_are_read_in_chunks_without_losing_or_reordering_rows(tmp_path, monkeypatch):
-    import firenav_framework.sources.readers.imu_csv as mod
+    import firenav_framework.formats.imu_csv as mod
 
     monkeypatch.setattr(mod, "CHUNK_ROWS", 97)
     blocks = make_blocks(1000)

@@ -22,7 +22,7 @@ from firenav_framework.registry import load_registry
 from firenav_framework.runner import PipelineBuildError, Runner
 from firenav_framework.sources.readers import (ReaderError, ReaderTable, ReadOptions,
                                                find_reader, imu_blocks, reader_table)
-from firenav_framework.sources.readers.imu_csv import ImuCsvReader, write_imu_csv
+from firenav_framework.formats.imu_csv import ImuCsvReader, write_imu_csv
 from firenav_framework.sources.recording import RecordingSource
 from firenav_framework.summary import summary_dict
 from firenav_framework.testing import make_component
@@ -167,7 +167,8 @@ PIPELINE = """\
 name: planted
 sources: [{{id: rec, plugin: recording, path: "{path}"}}]
 sensors:
-  - {{id: imu, plugin: foot_imu, input: rec.imu, axes: [x, -y, -z], accel_saturation: 156.9}}
+  - {{id: imu, plugin: foot_imu, input: rec.imu, axes: [x, -y, -z],
+       screening: {{accel_saturation: 156.9}}}}
 sinks:
   - {{id: collect, plugin: collect_imu, input: imu.imu}}
   - {{plugin: diagnostics_log, input: "*.diagnostics"}}

@@ -16,11 +16,11 @@ keeps it and the clash is listed as an error.
 The reader contract
 -------------------
 A *reader* is any callable ``reader(path: Path, options: ReadOptions)``: a class or
-a function (:class:`~.base.ReadOptions` carries the agent, device, IMU block length
+a function (:class:`~firenav_framework.formats.base.ReadOptions` carries the agent, device, IMU block length
 and a ``count`` callback).
 
 * Calling it opens and checks the file. A file it cannot read raises
-  :class:`~.base.ReaderError` (or ``OSError``) with a message that names the file and
+  :class:`~firenav_framework.formats.base.ReaderError` (or ``OSError``) with a message that names the file and
   what was expected; the source reports it before the run starts.
 * The call returns an iterable of ``(port, message)`` pairs: ``port`` is one of
   :data:`PORTS` (``imu`` ImuBlock in the device frame, ``truth`` GroundTruth,
@@ -47,7 +47,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ...messages import GroundTruth, ImuBlock, Message, PoseEstimate, RawFrame
-from .base import ReaderError, ReadOptions, imu_blocks
+from ...formats.base import ReaderError, ReadOptions, imu_blocks
 
 __all__ = ["PORTS", "ReaderError", "ReadOptions", "ReaderTable", "find_reader",
            "imu_blocks", "reader_table"]
@@ -92,7 +92,7 @@ def reader_table() -> ReaderTable:
     """Every reader of this package's modules (loaded once, on first use)."""
     table = ReaderTable()
     for mod in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-        if mod.name.startswith("_") or mod.name == "base":
+        if mod.name.startswith("_"):
             continue
         try:
             module = importlib.import_module(f"{__name__}.{mod.name}")

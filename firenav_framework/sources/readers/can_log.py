@@ -21,7 +21,7 @@ import can
 from ...messages import Message
 from ...transports.can_link import can_frame
 from ...transports.recorders import recording_set
-from .base import ReaderError, ReadOptions
+from ...formats.base import ReaderError, ReadOptions
 
 
 class CanLogReader:

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ...messages import GroundTruth, Message, PoseEstimate
-from .base import ReaderError, ReadOptions, imu_blocks
+from ...formats.base import ReaderError, ReadOptions, imu_blocks
 
 __all__ = ["ViconTrial", "IndoorWalk", "load_vicon_trial", "load_indoor_walk",
            "read_vicon_trial", "read_indoor_walk", "read_mat", "VICON_DETECTORS"]

@@ -14,7 +14,7 @@ from pathlib import Path
 from ...messages import Message
 from ...transports.line_links import line_frame
 from ...transports.recorders import recording_set, unescape_bytes
-from .base import ReadOptions
+from ...formats.base import ReadOptions
 
 TRANSPORTS = ("serial", "udp")
 

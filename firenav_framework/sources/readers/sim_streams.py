@@ -22,8 +22,8 @@ import numpy as np
 
 from ...messages import (BreadcrumbDrop, GroundTruth, Message, Range, RssiReading,
                          TagDeployment, TagDetection)
-from .base import ReaderError, ReadOptions
-from .imu_csv import ImuCsvReader
+from ...formats.base import ReaderError, ReadOptions
+from ...formats.imu_csv import ImuCsvReader
 
 FORMAT = "firenav-sim-streams"
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from ...messages import Message, RawFrame
 from ...transports.mavlink_packets import packet_frame, packet_length
 from ...transports.recorders import recording_set
-from .base import ReaderError, ReadOptions
+from ...formats.base import ReaderError, ReadOptions
 
 _STAMP = struct.Struct(">Q")
 

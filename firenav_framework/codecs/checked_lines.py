@@ -2,8 +2,8 @@
 
 The RFID reader and the UWB ranging tag both speak this dialect over serial or UDP:
 ``KIND,field,field,...*HH`` where ``HH`` (hex, optional) is the XOR of every byte
-before the ``*``. This module frames and checks such lines; each sensor parses its
-own fields.
+before the ``*``. This module frames and checks such lines; each codec
+(``uwb_lines``, ``rfid_lines``) parses its own fields.
 """
 from __future__ import annotations
 
@@ -11,16 +11,19 @@ import re
 from functools import reduce
 from operator import xor
 
+from ..contract.params import param
+from .base import Codec, FrameError
+
+__all__ = ["NAME", "CheckedLineOptions", "checksum", "encode_fields", "decode_fields"]
+
 #: A device, reader, tag or anchor name: no commas, spaces or checksum markers.
 NAME = re.compile(r"^[A-Za-z0-9_.:/-]+$")
 
 
-class LineProblem(ValueError):
-    """A line meant for us that cannot be trusted; ``kind`` is "not_ascii" or "checksum"."""
+class CheckedLineOptions(Codec.Options):
+    """Options of a checked-line codec."""
 
-    def __init__(self, kind: str, message: str):
-        super().__init__(message)
-        self.kind = kind
+    checksum: bool = param(True, description="encoding appends the *HH checksum")
 
 
 def checksum(body: bytes) -> int:
@@ -37,13 +40,13 @@ def encode_fields(fields: list[str], with_checksum: bool = True) -> bytes:
 def decode_fields(data: bytes, kinds: tuple[str, ...]) -> list[str] | None:
     """The fields of a line whose first field is one of ``kinds``; None for other lines.
 
-    A ``*HH`` suffix, when present, must match (:class:`LineProblem` "checksum");
-    bytes outside ASCII raise :class:`LineProblem` "not_ascii".
+    A ``*HH`` suffix, when present, must match (else :class:`FrameError`
+    ``checksum_errors``); bytes outside ASCII raise :class:`FrameError` ``bad_frames``.
     """
     try:
         text = bytes(data).decode("ascii").strip()
     except UnicodeDecodeError:
-        raise LineProblem("not_ascii", "line is not ASCII") from None
+        raise FrameError("bad_frames", "line is not ASCII") from None
     if text.split(",", 1)[0] not in kinds:
         return None
     if "*" in text:
@@ -53,6 +56,6 @@ def decode_fields(data: bytes, kinds: tuple[str, ...]) -> list[str] | None:
         except ValueError:
             ok = False
         if not ok:
-            raise LineProblem("checksum", f"checksum mismatch: {text!r}")
+            raise FrameError("checksum_errors", f"checksum mismatch: {text!r}")
         text = body
     return text.split(",")

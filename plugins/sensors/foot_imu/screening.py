@@ -1,4 +1,4 @@
-"""Sample screening for IMU streams: what is dropped, what is flagged, and counts.
+"""Sample screening of one IMU stream: what is dropped, what is flagged, and counts.
 
 Rules, applied to one device's samples in arrival order (SI units, device axes,
 before calibration; all array operations):
@@ -29,10 +29,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydantic import model_validator
 
+from firenav_framework.contract import Params, param
 from firenav_framework.messages import IMU_FLAG_BITS
 
-__all__ = ["QualityLimits", "DeviceHistory", "Screening", "screen", "MEMORY", "COUNTS"]
+__all__ = ["ScreeningLimits", "DeviceHistory", "Screening", "screen", "MEMORY", "COUNTS"]
 
 #: Kept samples per device remembered for duplicate detection across blocks.
 MEMORY = 64
@@ -45,15 +47,29 @@ SATURATED = np.uint8(IMU_FLAG_BITS["saturated"])
 GAP_BEFORE = np.uint8(IMU_FLAG_BITS["gap_before"])
 
 
-@dataclass(frozen=True)
-class QualityLimits:
-    """Thresholds of the screening (SI units)."""
+class ScreeningLimits(Params):
+    """Thresholds of the screening (the ``screening`` parameter group), SI units."""
 
-    accel_range: float                    # m/s^2 per axis; beyond: out of range
-    gyro_range: float                     # rad/s per axis
-    accel_saturation: float | None = None  # m/s^2, device full scale; at/beyond: saturated
-    gyro_saturation: float | None = None   # rad/s
-    gap: float = 0.05                     # s between consecutive samples
+    accel_range: float = param(400.0, unit="m/s^2", gt=0, description="plausible limit "
+                               "per axis (about 40 g); samples beyond are dropped as corrupt")
+    gyro_range: float = param(40.0, unit="rad/s", gt=0, description="plausible limit per "
+                              "axis (about 2300 deg/s); samples beyond are dropped")
+    accel_saturation: float | None = param(None, unit="m/s^2", gt=0, description="the "
+                                           "device's accel full scale: samples at or beyond "
+                                           "are flagged saturated and kept")
+    gyro_saturation: float | None = param(None, unit="rad/s", gt=0, description="the "
+                                          "device's gyro full scale (flag, keep)")
+    gap: float = param(0.05, unit="s", gt=0, description="a step between samples longer "
+                       "than this is a gap: flagged gap_before, counted and reported")
+
+    @model_validator(mode="after")
+    def _saturation_in_range(self) -> "ScreeningLimits":
+        for kind in ("accel", "gyro"):
+            sat, rng = getattr(self, f"{kind}_saturation"), getattr(self, f"{kind}_range")
+            if sat is not None and sat > rng:
+                raise ValueError(f"{kind}_saturation ({sat}) must not exceed "
+                                 f"{kind}_range ({rng}): saturated samples would be dropped")
+        return self
 
 
 @dataclass
@@ -78,7 +94,7 @@ class Screening:
     longest_gap: float        # s, 0 when there was none
 
 
-def screen(time: np.ndarray, accel: np.ndarray, gyro: np.ndarray, limits: QualityLimits,
+def screen(time: np.ndarray, accel: np.ndarray, gyro: np.ndarray, limits: ScreeningLimits,
            history: DeviceHistory, flags: np.ndarray | None = None) -> Screening:
     """Screen one device's samples (see the module docstring); updates ``history``.
 

@@ -1,7 +1,7 @@
 """What every recorded-file reader shares: its options, its error type, IMU blocking.
 
-See the package docstring (:mod:`firenav_framework.sources.readers`) for the reader
-contract itself.
+See :mod:`firenav_framework.sources.readers` for the reader contract itself and the
+table of readers by file suffix.
 """
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...messages import ImuBlock
+from ..messages import ImuBlock
 
 
 class ReaderError(ValueError):

@@ -1,0 +1,82 @@
+"""``rfid_lines``: an RFID reader's text lines, tag reads and deployments::
+
+    TAG,<reader>,<tag_id>,<rssi_dbm>[,<reads>][*HH]     a read; rssi may be empty
+    DEPLOY,<reader>,<tag_id>[*HH]                       the wearer attached this tag
+
+``*HH`` is optional: the XOR of the bytes before ``*`` in hex, as NMEA
+(:mod:`.checked_lines`).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from typing import Literal, NamedTuple
+
+from ..messages import RawFrame
+from .base import Codec, EncodedFrame, FrameError
+from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
+
+__all__ = ["RfidEvent", "RfidLinesCodec"]
+
+
+class RfidEvent(NamedTuple):
+    """One reader line: ``kind`` "TAG" (a read) or "DEPLOY" (a tag attached).
+
+    ``t`` [s] the frame's time; ``reader`` the reader's id (``<agent>/<device>`` by
+    convention); ``rssi_dbm`` the read's signal strength [dBm] (None: not reported);
+    ``reads`` how many reads the line stands for (>= 1).
+    """
+
+    t: float
+    kind: Literal["TAG", "DEPLOY"]
+    reader: str
+    tag_id: str
+    rssi_dbm: float | None = None
+    reads: int = 1
+
+
+class RfidLinesCodec(Codec):
+    """RFID reader lines: TAG reads and DEPLOY events, with an optional *HH checksum.
+
+    Other lines on the link are not ours (None); a broken TAG or DEPLOY line raises
+    :class:`FrameError` (``checksum_errors`` for a wrong checksum, else ``bad_frames``).
+    """
+
+    name = "rfid_lines"
+    transport = "lines"
+    record = RfidEvent
+    Options = CheckedLineOptions
+
+    def decode(self, frame: RawFrame) -> list[RfidEvent] | None:
+        parts = decode_fields(frame.data, ("TAG", "DEPLOY"))
+        if parts is None:
+            return None
+        text = ",".join(parts)
+        kind = parts[0]
+        if kind == "DEPLOY" and len(parts) != 3 or kind == "TAG" and len(parts) not in (4, 5):
+            raise FrameError("bad_frames", f"{kind} line has {len(parts)} fields: {text!r}")
+        reader, tag_id = parts[1], parts[2]
+        if not (NAME.match(reader) and NAME.match(tag_id)):
+            raise FrameError("bad_frames", f"bad reader or tag id: {text!r}")
+        if kind == "DEPLOY":
+            return [RfidEvent(frame.t, "DEPLOY", reader, tag_id)]
+        try:
+            rssi = float(parts[3]) if parts[3] else None
+            reads = int(parts[4]) if len(parts) == 5 else 1
+        except ValueError:
+            raise FrameError("bad_frames", f"non-numeric field: {text!r}") from None
+        if (rssi is not None and not math.isfinite(rssi)) or reads < 1:
+            raise FrameError("bad_frames", f"field out of range: {text!r}")
+        return [RfidEvent(frame.t, "TAG", reader, tag_id, rssi, reads)]
+
+    def encode(self, events: Iterable[RfidEvent], *, address: str = "") -> list[EncodedFrame]:
+        """One line per event (no terminator)."""
+        out = []
+        for e in events:
+            fields = [e.kind, e.reader, e.tag_id]
+            if e.kind == "TAG":
+                fields.append("" if e.rssi_dbm is None else f"{e.rssi_dbm:.1f}")
+                if e.reads != 1:
+                    fields.append(str(e.reads))
+            out.append(EncodedFrame(e.t, "", encode_fields(fields, self.options.checksum)))
+        return out

@@ -1,0 +1,157 @@
+"""The ``foot_imu`` sensor class: inputs in, FLU blocks and reports out (see the package)."""
+from __future__ import annotations
+
+import numpy as np
+
+from firenav_framework.codecs import FrameError
+from firenav_framework.codecs.imu_sample import ImuSample
+from firenav_framework.codecs.selection import TransportCodecs
+from firenav_framework.contract import Context, Sensor
+from firenav_framework.messages import ImuBlock, RawFrame
+
+from .calibration import CalibrationFile, LinearCorrection, axes_matrix, load_calibration
+from .params import FootImuParams
+from .problems import frame_problem, screening_problems
+from .routing import DeviceRoutes
+from .samples import SampleBuffer, Samples
+from .screening import Screening
+from .streams import DeviceStream
+
+__all__ = ["FootImuSensor"]
+
+
+class FootImuSensor(Sensor):
+    """Decode, screen, calibrate and rotate foot-IMU data to FLU ImuBlocks."""
+
+    name = "foot_imu"
+    inputs = (ImuBlock, RawFrame)
+    outputs = {"imu": ImuBlock}
+    Params = FootImuParams
+
+    def __init__(self, params: FootImuParams, ctx: Context):
+        super().__init__(params, ctx)
+        self._R = axes_matrix(params.axes)
+        self._scales = params.units.scales()
+        self._calibration: CalibrationFile | None = None
+        if params.calibration:
+            self._calibration = load_calibration(ctx.resolve(params.calibration))
+        self._codecs = TransportCodecs(params.frames, count=self._codec_count,
+                                       resolve=ctx.resolve)
+        self._streams: dict[tuple[str, str], DeviceStream] = {}
+        self._routes = DeviceRoutes(params.frames, ctx, self._stream)
+        self._t = 0.0  # newest input time, for reports without one of their own
+
+    # -- inputs ---------------------------------------------------------------------
+    def handle(self, stream: str, msg: ImuBlock | RawFrame) -> None:
+        self._t = msg.t if np.isfinite(msg.t) else self._t
+        if isinstance(msg, ImuBlock):
+            self._block(msg)
+        elif isinstance(msg, RawFrame):
+            self._frame(msg)
+
+    def _block(self, msg: ImuBlock) -> None:
+        if msg.frame == "FLU" and not np.array_equal(self._R, np.eye(3)):
+            self.ctx.warn_once(msg.t, "imu_already_flu", f"{msg.device}: input is already "
+                               f"FLU but `axes` {self.params.axes} rotates it again",
+                               agent=msg.agent)
+        stream = self._stream(msg.agent, msg.device, msg.device)
+        sa, sg, sm = self._scales
+        accel = msg.accel * sa if sa != 1 else msg.accel
+        gyro = msg.gyro * sg if sg != 1 else msg.gyro
+        mag = None if msg.mag is None else (msg.mag * sm if sm != 1 else msg.mag)
+        flags = (np.zeros(len(msg), np.uint8) if msg.flags is None
+                 else np.asarray(msg.flags, np.uint8))
+        self._condition(stream, msg.t, Samples(np.asarray(msg.time, float), accel, gyro, mag,
+                                               flags))
+
+    def _frame(self, frame: RawFrame) -> None:
+        codec = self._codecs.get(frame.transport)
+        if codec is None:
+            self.ctx.count("frames_ignored")
+            return
+        try:
+            samples: list[ImuSample] | None = codec.decode(frame)
+        except FrameError as exc:
+            frame_problem(self.ctx, frame.t, exc.code, f"latest: {exc}",
+                          key=frame.device or frame.transport, every=self.params.report_interval)
+            return
+        if samples is None:
+            self.ctx.count("frames_ignored")
+            return
+        for s in samples:
+            stream, clock = self._routes.route(s.device, frame.agent, self._t)
+            t, resynced = clock.to_pipeline(s.t, frame.t)
+            if resynced:
+                frame_problem(self.ctx, self._t, "clock_resyncs", agent=stream.agent,
+                              key=stream.device, every=self.params.report_interval)
+            done = stream.buffer.add(t, s)
+            if done is not None:
+                self._condition(stream, _newest(done, self._t), done)
+
+    def _codec_count(self, what: str, n: int) -> None:
+        """What a codec counts that is no single frame's fault (incomplete samples)."""
+        frame_problem(self.ctx, self._t, what, n=n, every=self.params.report_interval)
+
+    def finish(self) -> None:
+        self._codecs.finish()
+        for stream in list(self._streams.values()):
+            done = stream.buffer.take()
+            if done is not None:
+                self._condition(stream, _newest(done, self._t), done)
+            if stream.held is not None:
+                held, stream.held = stream.held, None
+                self._condition(stream, self._t, held, final=True)
+        self.ctx.flush_reports()
+
+    def reset(self, agent: str) -> None:
+        self._streams = {k: s for k, s in self._streams.items() if s.agent != agent}
+        self._routes.reset(agent)
+
+    # -- streams --------------------------------------------------------------------
+    def _stream(self, agent: str, device: str, raw_id: str) -> DeviceStream:
+        """The output stream of (agent, device), made on first use with the calibration
+        of ``raw_id`` or ``device``."""
+        stream = self._streams.get((agent, device))
+        if stream is not None:
+            return stream
+        cal = None
+        if self._calibration is not None:
+            cal = self._calibration.for_device(raw_id, device)
+            if cal is None:
+                self.ctx.warn_once(self._t, "imu_uncalibrated", f"{device}: no entry in "
+                                   f"{self.params.calibration} and no default: used "
+                                   "uncalibrated", agent=agent, key=device, level="info")
+        stream = DeviceStream(agent=agent, device=device,
+                              accel=LinearCorrection.build(self._R, cal.accel if cal else None),
+                              gyro=LinearCorrection.build(self._R, cal.gyro if cal else None),
+                              mag=LinearCorrection.build(self._R, cal.mag if cal else None),
+                              buffer=SampleBuffer(self.params.frames.block_s))
+        self._streams[(agent, device)] = stream
+        return stream
+
+    def _condition(self, stream: DeviceStream, t_msg: float, samples: Samples,
+                   final: bool = False) -> None:
+        """Screen, correct and publish one stream's samples; report what screening found."""
+        result, block = stream.condition(samples, self.params.screening, final)
+        if result is not None:
+            self._report(stream, t_msg, result)
+        if block is None:
+            return
+        self.ctx.publish("imu", block)
+        if not stream.rest.done:
+            for code, text in stream.rest.feed(block):
+                self.ctx.diagnose(block.t, "warning", code, text, agent=stream.agent)
+
+    def _report(self, stream: DeviceStream, t: float, result: Screening) -> None:
+        for key, what, n, text in screening_problems(result):
+            self.ctx.count(what, n)
+            if text is not None:
+                self.ctx.report(t, f"imu_{key}", text, n=n, agent=stream.agent,
+                                key=stream.device, every=self.params.report_interval,
+                                worst=result.longest_gap if key == "gaps" else 0.0)
+
+
+def _newest(samples: Samples, default: float) -> float:
+    """The newest finite sample time of ``samples`` [s], else ``default``."""
+    finite = samples.time[np.isfinite(samples.time)]
+    return float(finite.max()) if finite.size else default

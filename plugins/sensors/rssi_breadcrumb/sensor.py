@@ -1,0 +1,138 @@
+"""The ``rssi_breadcrumb`` sensor class: radio readings in; ranges, encounters, moves out."""
+from __future__ import annotations
+
+import math
+
+from firenav_framework import BreadcrumbDrop, Params, Range, RssiReading, Sensor, param
+from firenav_framework.contract import Context
+
+from .encounters import EncounterDetector, EncounterRules, Episode
+from .kicks import KickDetector, KickRules
+from .path_loss import range_sigma, rssi_to_range
+
+__all__ = ["RssiBreadcrumbSensor"]
+
+
+class RssiBreadcrumbSensor(Sensor):
+    """Breadcrumb radio traffic -> RSSI ranges, encounter events and moved breadcrumbs."""
+
+    name = "rssi_breadcrumb"
+    inputs = (RssiReading, BreadcrumbDrop)
+    outputs = {"range": Range, "encounters": Range, "moved": BreadcrumbDrop}
+
+    class Params(Params):
+        rssi_1m_dbm: float = param(-40.0, unit="dBm", description="RSSI at 1 m (breadcrumb "
+                                   "paper §V-A: above -40 dBm within about a metre)")
+        path_loss_exponent: float = param(3.0, gt=1, lt=6, description="log-distance "
+                                          "exponent n (indoor 2.4 GHz: 2.5-3.5; calibrate)")
+        shadowing_db: float = param(5.0, unit="dB", gt=0, description="std of the RSSI about "
+                                    "the model (shadowing + fading); sets the range sigma")
+        min_range_m: float = param(0.3, unit="m", gt=0, description="model ranges are "
+                                   "clipped up to this")
+        max_range_m: float = param(30.0, unit="m", gt=0, description="readings implying a "
+                                   "longer range carry no useful range and are skipped "
+                                   "(counted)")
+        max_rssi_dbm: float = param(0.0, unit="dBm", description="above this a reading is "
+                                    "impossible")
+        min_rssi_dbm: float = param(-110.0, unit="dBm", description="below this a reading "
+                                    "is impossible (under any receiver's sensitivity)")
+        base_stations: list[str] = param(["base"], description="node ids of base stations "
+                                         "(fixed nodes known from the start)")
+        encounter: EncounterRules = param(EncounterRules(), description="encounter "
+                                          "episodes (§V-A): threshold, peak, sigma")
+        kick: KickRules = param(KickRules(), description="moved-breadcrumb detection on "
+                                "the links between fixed nodes (§V-B/C)")
+
+    def __init__(self, params: Params, ctx: Context) -> None:
+        super().__init__(params, ctx)
+        p = self.params
+        self._fixed: dict[str, float] = {b: -math.inf for b in p.base_stations}  # id -> t
+        self._agents: set[str] = set()
+        self._encounters = EncounterDetector(p.encounter)
+        self._kicks = KickDetector(p.kick, p.base_stations)
+
+    # -- input ------------------------------------------------------------------------------
+    def handle(self, stream: str, msg) -> None:
+        if isinstance(msg, BreadcrumbDrop):
+            if msg.agent:
+                self._agents.add(msg.agent)
+            if msg.node_id not in self._fixed:
+                self._fixed[msg.node_id] = msg.t
+            return
+        if isinstance(msg, RssiReading):
+            self._reading(msg)
+
+    def _reading(self, msg: RssiReading) -> None:
+        p = self.params
+        if msg.agent:
+            self._agents.add(msg.agent)
+        rssi = msg.rssi_dbm
+        problem = self._problem(msg)
+        if problem:
+            self.ctx.count(problem)
+            return
+        d = rssi_to_range(rssi, p.rssi_1m_dbm, p.path_loss_exponent)
+        pair = tuple(sorted((msg.tx, msg.rx)))
+        if msg.tx in self._fixed and msg.rx in self._fixed:
+            for node, t0, links in self._kicks.reading(pair, msg.t, rssi):
+                self._moved(node, t0, links)
+        else:
+            agent = msg.agent or next((n for n in pair if n in self._agents), "")
+            for done in self._encounters.reading(pair, msg.t, rssi, agent, msg.device):
+                self._emit(*done)
+        if d > p.max_range_m:
+            self.ctx.count("beyond_max_range")
+            return
+        d = max(d, p.min_range_m)
+        self.ctx.publish("range", Range(t=msg.t, agent=msg.agent, device=msg.device,
+                                        a=msg.tx, b=msg.rx, range_m=d,
+                                        sigma_m=range_sigma(d, p.shadowing_db,
+                                                            p.path_loss_exponent),
+                                        method="rssi"))
+
+    def _problem(self, msg: RssiReading) -> str:
+        """Why a reading is impossible ('' when it is plausible); counted by that name."""
+        p = self.params
+        rssi = msg.rssi_dbm
+        if not isinstance(rssi, (int, float)) or not math.isfinite(rssi):
+            return "rejected_non_finite"
+        if rssi > p.max_rssi_dbm:
+            return "rejected_rssi_too_high"
+        if rssi < p.min_rssi_dbm:
+            return "rejected_rssi_too_low"
+        if msg.tx == msg.rx:
+            return "rejected_self_reading"
+        for node in (msg.tx, msg.rx):
+            if node in self._agents:
+                continue
+            t_drop = self._fixed.get(node)
+            if t_drop is None:
+                self.ctx.warn_once(msg.t, "unknown_radio_node", f"RSSI readings name node "
+                                   f"{node!r}, which is neither a base station, a dropped "
+                                   "breadcrumb nor a firefighter: skipped", key=node)
+                return "rejected_unknown_node"
+            if msg.t < t_drop:
+                return "rejected_not_dropped_yet"
+        return ""
+
+    def _emit(self, pair: tuple[str, str], ep: Episode) -> None:
+        p = self.params
+        d = max(rssi_to_range(ep.peak_dbm, p.rssi_1m_dbm, p.path_loss_exponent), p.min_range_m)
+        a, b = ((ep.agent, pair[1] if pair[0] == ep.agent else pair[0])
+                if ep.agent in pair else pair)
+        self.ctx.count("encounters")
+        self.ctx.publish("encounters", Range(t=ep.peak_t, agent=ep.agent, device=ep.device,
+                                             a=a, b=b, range_m=d, sigma_m=p.encounter.sigma_m,
+                                             method="rssi_encounter"))
+
+    def _moved(self, node: str, t0: float, links: int) -> None:
+        self.ctx.count("breadcrumbs_moved")
+        self.ctx.diagnose(t0, "warning", "breadcrumb_moved",
+                          f"breadcrumb {node} moved (RSSI of {links} fixed links "
+                          f"shifted by more than {self.params.kick.db:g} dB)")
+        self.ctx.publish("moved", BreadcrumbDrop(t=t0, agent="", device="kick_detector",
+                                                 node_id=node))
+
+    def finish(self) -> None:
+        for done in self._encounters.close_all():
+            self._emit(*done)
