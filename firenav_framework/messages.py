@@ -272,10 +272,12 @@ class PoseEstimate(Message):
 
     ``position`` (3,) ENU [m]; ``heading`` [rad]; ``cov`` (4, 4) over
     (x, y, z, heading); ``floor`` the floor index (0 = ground floor) or None when
-    unknown. ``trusted`` is False when the estimator itself judges the estimate
-    unreliable (e.g. particle spread after a map error). ``frame`` is ``"building"``
-    when the pose is placed in the building; an estimator that only knows its own
-    start (an unaided INS) names its own frame, e.g. ``"odometry"``.
+    unknown. ``protection_radius`` [m] bounds the horizontal error at 99 % containment
+    (``inf``: no bound is promised); ``trusted`` is True only while that bound is within
+    the estimator's alert limit and nothing contradicts the estimate
+    (:mod:`firenav_framework.integrity`). ``frame`` is ``"building"`` when the pose is
+    placed in the building; an estimator that only knows its own start (an unaided INS)
+    names its own frame, e.g. ``"odometry"``.
     """
 
     position: np.ndarray
@@ -284,6 +286,7 @@ class PoseEstimate(Message):
     floor: int | None = None
     trusted: bool = True
     frame: str = "building"
+    protection_radius: float = float("inf")
     kind: ClassVar[str] = "pose"
 
     def __post_init__(self) -> None:

@@ -2,9 +2,10 @@
 
 CSV columns (one row per pose, ENU metres, radians, seconds)::
 
-    t,agent,x,y,z,heading,var_x,cov_xy,var_y,var_z,var_heading,floor,trusted
+    t,agent,x,y,z,heading,var_x,cov_xy,var_y,var_z,var_heading,floor,trusted,protection_radius
 
-``floor`` is empty when unknown. GeoJSON holds one LineString per track; its
+``floor`` is empty when unknown; ``protection_radius`` [m] is the horizontal error bound at
+99 % containment (``inf``: none promised). GeoJSON holds one LineString per track; its
 positions are RFC 7946 WGS84 longitude, latitude and ellipsoidal height when the
 building has a geographic reference, otherwise plan metres, and the collection's
 ``coordinate_frame`` member says which.
@@ -26,7 +27,8 @@ from .messages import GroundTruth, Message, PoseEstimate
 if TYPE_CHECKING:
     from .building.georef import GeoRef
 
-CSV_HEADER = "t,agent,x,y,z,heading,var_x,cov_xy,var_y,var_z,var_heading,floor,trusted"
+CSV_HEADER = ("t,agent,x,y,z,heading,var_x,cov_xy,var_y,var_z,var_heading,floor,trusted,"
+              "protection_radius")
 
 
 def _num(v: float) -> str:
@@ -41,13 +43,15 @@ def pose_csv_row(msg: PoseEstimate) -> str:
     floor = "" if msg.floor is None else str(int(msg.floor))
     return ",".join([_num(msg.t), msg.agent, _num(p[0]), _num(p[1]), _num(p[2]),
                      _num(msg.heading), _num(c[0, 0]), _num(c[0, 1]), _num(c[1, 1]),
-                     _num(c[2, 2]), _num(c[3, 3]), floor, "1" if msg.trusted else "0"])
+                     _num(c[2, 2]), _num(c[3, 3]), floor, "1" if msg.trusted else "0",
+                     _num(msg.protection_radius)])
 
 
 @dataclass
 class Track:
     """One agent's track as arrays: ``t`` (N,), ``position`` (N, 3), ``heading`` (N,),
-    ``cov`` (N, 4, 4), ``floor`` (N,) with -1 for unknown, ``trusted`` (N,) bool."""
+    ``cov`` (N, 4, 4), ``floor`` (N,) with -1 for unknown, ``trusted`` (N,) bool,
+    ``protection_radius`` (N,) [m] (``inf`` where none was promised, and for truth)."""
 
     agent: str
     t: np.ndarray
@@ -56,6 +60,7 @@ class Track:
     cov: np.ndarray
     floor: np.ndarray
     trusted: np.ndarray
+    protection_radius: np.ndarray
     #: Frame of the positions: "building" for estimates; truth may name another frame.
     frame: str = "building"
 
@@ -79,11 +84,12 @@ class _Builder:
         self.frame = msg.frame
         if isinstance(msg, PoseEstimate):
             self.rows.append((msg.t, msg.position, msg.heading, msg.cov,
-                              -1 if msg.floor is None else msg.floor, msg.trusted))
+                              -1 if msg.floor is None else msg.floor, msg.trusted,
+                              msg.protection_radius))
         else:
             assert isinstance(msg, GroundTruth)
             self.rows.append((msg.t, msg.position, msg.heading, None,
-                              -1 if msg.floor is None else msg.floor, True))
+                              -1 if msg.floor is None else msg.floor, True, math.inf))
 
     def build(self, agent: str) -> Track:
         rows = self.rows
@@ -99,6 +105,7 @@ class _Builder:
                      cov=cov,
                      floor=np.fromiter((r[4] for r in rows), int, n),
                      trusted=np.fromiter((r[5] for r in rows), bool, n),
+                     protection_radius=np.fromiter((r[6] for r in rows), float, n),
                      frame=self.frame)
 
 
@@ -146,7 +153,8 @@ def read_csv(path: Path) -> dict[str, Track]:
                 position=np.array([float(row["x"]), float(row["y"]), float(row["z"])]),
                 heading=float(row["heading"]), cov=cov,
                 floor=int(row["floor"]) if row["floor"] else None,
-                trusted=row.get("trusted", "1") != "0"))
+                trusted=row.get("trusted", "1") != "0",
+                protection_radius=float(row.get("protection_radius") or "inf")))
     return {a: b.build(a) for a, b in sorted(by_agent.items())}
 
 
@@ -161,12 +169,13 @@ def geojson(tracks: dict[str, dict[str, Track]], georef: "GeoRef | None" = None)
     features = []
     for stream, agents in tracks.items():
         for agent, tr in agents.items():
+            finite = tr.position[np.all(np.isfinite(tr.position), axis=1)]  # GeoJSON has no NaN
             if georef is None:
                 pos = [[round(float(x), 4), round(float(y), 4), round(float(z), 4)]
-                       for x, y, z in tr.position]
+                       for x, y, z in finite]
             else:
                 pos = [[round(float(lon), 9), round(float(lat), 9), round(float(h), 3)]
-                       for lon, lat, h in georef.to_wgs84(tr.position)]
+                       for lon, lat, h in georef.to_wgs84(finite)]
             last = tr.cov[-1] if len(tr) else np.full((4, 4), np.nan)
             features.append({
                 "type": "Feature",
@@ -179,6 +188,10 @@ def geojson(tracks: dict[str, dict[str, Track]], georef: "GeoRef | None" = None)
                     "last_floor": int(tr.floor[-1]) if len(tr) and tr.floor[-1] >= 0 else None,
                     "last_sigma_xy_m": (round(math.sqrt(max(0.0, (last[0, 0] + last[1, 1]) / 2)), 3)
                                         if np.isfinite(last[0, 0]) else None),
+                    "last_protection_radius_m": (round(float(tr.protection_radius[-1]), 3)
+                                                 if len(tr) and np.isfinite(tr.protection_radius[-1])
+                                                 else None),
+                    "trusted_fraction": (round(float(np.mean(tr.trusted)), 4) if len(tr) else None),
                 },
             })
     return {"type": "FeatureCollection", "coordinate_frame": coordinate_frame(georef),

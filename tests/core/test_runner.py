@@ -53,8 +53,8 @@ def test_csv_has_the_documented_columns_and_reads_back(tmp_path):
     run(pipeline(), tmp_path)
     lines = (tmp_path / "dr_pose.csv").read_text().splitlines()
     assert lines[0] == ("t,agent,x,y,z,heading,var_x,cov_xy,var_y,var_z,var_heading,"
-                        "floor,trusted")
-    assert lines[1] == "1.0,ff1,1.0,0.0,0.0,0.0,0.1,0.0,0.1,0.1,0.1,,1"
+                        "floor,trusted,protection_radius")
+    assert lines[1] == "1.0,ff1,1.0,0.0,0.0,0.0,0.1,0.0,0.1,0.1,0.1,,1,inf"
     back = read_csv(tmp_path / "dr_pose.csv")
     np.testing.assert_allclose(back["ff2"].position[:, 0], np.arange(1, 11))
 

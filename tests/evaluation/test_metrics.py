@@ -19,7 +19,7 @@ def make_track(t, xy, z=None, floor=None, agent="a") -> Track:
     return Track(agent=agent, t=t, position=pos, heading=np.zeros(n),
                  cov=np.tile(np.eye(4) * 0.01, (n, 1, 1)),
                  floor=np.full(n, -1) if floor is None else np.asarray(floor),
-                 trusted=np.ones(n, bool))
+                 trusted=np.ones(n, bool), protection_radius=np.full(n, np.inf))
 
 
 def straight_truth(speed=1.0, duration=100.0, rate=20.0, floor=0):
