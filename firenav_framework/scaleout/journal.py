@@ -25,11 +25,17 @@ class Journal:
         self.path = Path(path)
         self.damaged = 0
         self.records: dict[str, dict[str, Any]] = {}
+        self._cut = False      # the file ends inside a line: start the next one afresh
         if self.path.exists():
             self._read()
 
     def _read(self) -> None:
-        with self.path.open(encoding="utf-8") as fh:
+        with self.path.open("rb") as fh:
+            fh.seek(0, os.SEEK_END)
+            if fh.tell():
+                fh.seek(-1, os.SEEK_END)
+                self._cut = fh.read(1) != b"\n"
+        with self.path.open(encoding="utf-8", errors="replace") as fh:
             for lineno, line in enumerate(fh, 1):
                 if not line.strip():
                     continue
@@ -51,7 +57,8 @@ class Journal:
     def append(self, record: dict[str, Any]) -> None:
         """Add one result (must have ``key`` and ``ok``) and make it durable."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        line = json.dumps(record, default=json_default) + "\n"
+        line = ("\n" if self._cut else "") + json.dumps(record, default=json_default) + "\n"
+        self._cut = False
         with self.path.open("a", encoding="utf-8") as fh:
             fh.write(line)
             fh.flush()
