@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 
 from firenav_framework.cli import main
 from firenav_framework.evaluation import evaluate
