@@ -182,11 +182,7 @@ class EvaluationPlan:
     name: str
     scenario: str | None
     seeds: list[int | None]
-    stream: str
-    truth_mode: str
-    align: str
-    bound_m: float
-    runs: list[RunSpec]
+    runs: list[RunSpec]        # one per seed; stream, truth mode, alignment alike in all
 
 
 def plan_evaluation(pipeline: str | Path, *, scenario: str | None = None,
@@ -234,8 +230,7 @@ def plan_evaluation(pipeline: str | Path, *, scenario: str | None = None,
     if scen is None and sim_id is not None:
         scen = str(base_spec.by_id(sim_id).params.scenario)
     return EvaluationPlan(pipeline=str(pipeline), name=base_spec.name, scenario=scen,
-                          seeds=seed_list, stream=stream, truth_mode=truth_mode, align=align,
-                          bound_m=bound_m, runs=runs)
+                          seeds=seed_list, runs=runs)
 
 
 def run_one(run: RunSpec) -> RunEvaluation:
@@ -258,14 +253,15 @@ def assemble(plan: EvaluationPlan, runs: list[RunEvaluation],
         first = failed[0] if failed else None
         raise EvaluationError(f"{plan.name}: every run failed" + (
             f"; seed {first.seed}: {first.error}" if first else ""))
+    how = plan.runs[0]
     errs = [e for r in runs for e in r.errors.values()]
     agents = sorted({a for r in runs for a in r.errors})
-    per_agent = {a: pooled_metrics([r.errors[a] for r in runs if a in r.errors], plan.bound_m)
+    per_agent = {a: pooled_metrics([r.errors[a] for r in runs if a in r.errors], how.bound_m)
                  for a in agents}
     return Evaluation(pipeline=plan.pipeline, scenario=plan.scenario, seeds=plan.seeds,
-                      stream=plan.stream, truth_mode=runs[0].truth_mode, align=plan.align,
-                      bound_m=plan.bound_m, runs=runs,
-                      overall=pooled_metrics(errs, plan.bound_m), per_agent=per_agent,
+                      stream=how.stream, truth_mode=runs[0].truth_mode, align=how.align,
+                      bound_m=how.bound_m, runs=runs,
+                      overall=pooled_metrics(errs, how.bound_m), per_agent=per_agent,
                       failed=list(failed))
 
 
