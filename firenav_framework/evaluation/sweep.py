@@ -53,6 +53,8 @@ class _Strict(BaseModel):
 
 
 class PipelineEntry(_Strict):
+    """A pipeline of the sweep (or its baseline): file, evaluated stream, own overrides."""
+
     path: str
     stream: str | None = None
     label: str | None = None
@@ -89,26 +91,30 @@ class Distribution(_Strict):
 
 
 class RandomSearch(_Strict):
+    """``samples`` settings drawn from ``params`` with a generator seeded by ``seed``."""
+
     samples: int = Field(gt=0)
     seed: int = 0
     params: dict[str, Distribution]
 
 
 class SeedSets(_Strict):
+    """Seed expressions (:mod:`.seeds`) of the two phases; ``report: null`` skips phase 2."""
+
     tuning: str | int = "tuning"
     report: str | int | None = "report"
 
 
 class Objective(_Strict):
+    """The figure settings are ranked by (median over runs) and which way is better."""
+
     metric: str = "rmse_m"
     goal: Literal["min", "max"] | None = None
 
 
-class BaselineEntry(PipelineEntry):
-    pass
-
-
 class SweepFile(_Strict):
+    """The sweep file (module docstring; docs/scale-out.md)."""
+
     name: str | None = None
     pipelines: list[PipelineEntry | str] = Field(min_length=1)
     scenarios: list[str] | None = None
@@ -118,7 +124,7 @@ class SweepFile(_Strict):
     seeds: SeedSets = SeedSets()
     objective: Objective = Objective()
     best: int = Field(1, ge=1)
-    baseline: BaselineEntry | str | None = None
+    baseline: PipelineEntry | str | None = None
     truth: str = "auto"
     align: str = "none"
     converge_bound_m: float = Field(CONVERGE_BOUND_M, gt=0)
@@ -229,7 +235,7 @@ def load_sweep(path: str | Path) -> Sweep:
 
 def _located(doc: LocatedDocument, err: dict):
     loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in (
-        "PipelineEntry", "BaselineEntry", "str", "function-after[_one(), Distribution]")))
+        "PipelineEntry", "str", "function-after[_one(), Distribution]")))
     return doc.problem(loc, pydantic_message(err))
 
 
