@@ -112,19 +112,22 @@ def main() -> None:
     serial, t_serial = evs["serial"], best["serial"]
     t_one = best.get("1 worker")
     rows = [(name, *startup[name], best[name], figures(evs[name]) == figures(serial),
-             sum(r.wall_s for r in evs[name].runs)) for name in executors]
+             sum(r.wall_s for r in evs[name].runs), sum(r.cpu_s for r in evs[name].runs))
+            for name in executors]
 
     print(f"{'executor':<11} {'startup s':>9} {'warm-up s':>9} {'evaluate s':>10} "
-          f"{'runs/min':>8} {'speed-up':>8} {'end to end':>10} {'runs own s':>10}  same figures")
-    for name, t_start, t_warm, t_eval, same, own in rows:
+          f"{'runs/min':>8} {'speed-up':>8} {'end to end':>10} {'runs own s':>10} "
+          f"{'runs CPU s':>10}  same figures")
+    for name, t_start, t_warm, t_eval, same, own, cpu in rows:
         e2e = t_serial / (t_start + t_warm + t_eval) if name != "serial" else 1.0
         print(f"{name:<11} {t_start:>9.1f} {t_warm:>9.1f} {t_eval:>10.1f} "
               f"{60 * len(seeds) / t_eval:>8.1f} {t_serial / t_eval:>7.2f}x {e2e:>9.2f}x "
-              f"{own:>10.1f}  "
+              f"{own:>10.1f} {cpu:>10.1f}  "
               f"{'yes' if same else 'NO'}")
     print("\n(speed-up: serial evaluate / evaluate; end to end: serial evaluate / "
-          "(startup + warm-up + evaluate); runs own s: the runs' wall times summed, as "
-          "measured inside each run, of the last repeat)")
+          "(startup + warm-up + evaluate); runs own s / CPU s: the runs' wall / CPU times "
+          "summed, as measured inside each run, of the last repeat: own s above CPU s means "
+          "the runs waited for a core)")
     if overhead_task is not None and t_one is not None:
         print(f"executor overhead per run: empty-task round trip {1000 * overhead_task:.1f} ms "
               f"({args.empty_tasks} tasks, 1 worker); 1-worker minus serial evaluate "

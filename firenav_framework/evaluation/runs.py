@@ -81,6 +81,7 @@ class RunEvaluation:
     wall_s: float = 0.0
     missing_truth: list[str] = field(default_factory=list)
     figures: TrackMetrics | None = None     # this run's agents pooled (see .spread)
+    cpu_s: float = 0.0                      # CPU time of the process during the run
 
 
 @dataclass(frozen=True)
@@ -125,6 +126,7 @@ class Evaluation:
             "spread": {k: s.as_dict() for k, s in self.spread().items()},
             "per_agent": {a: m.as_dict() for a, m in self.per_agent.items()},
             "per_run": [{"seed": r.seed, "wall_s": round(r.wall_s, 3),
+                         "cpu_s": round(r.cpu_s, 3),
                          "outside_checkpoints": r.outside_checkpoints,
                          "missing_truth": r.missing_truth,
                          "figures": r.figures.as_dict() if r.figures else None,
@@ -237,13 +239,15 @@ def run_one(run: RunSpec) -> RunEvaluation:
     """Run and measure one seed: a pure function of ``run`` (safe on any worker)."""
     from ..runner import run_pipeline
     spec = load_pipeline(run.pipeline, list(run.overrides))
-    t0 = time.monotonic()
+    t0, c0 = time.monotonic(), time.process_time()
     with tempfile.TemporaryDirectory(prefix="firenav-eval-") as tmp:
         out = Path(run.output_dir) if run.output_dir else Path(tmp)
         out.mkdir(parents=True, exist_ok=True)
         result = run_pipeline(spec, output_dir=out)
-    return _measure(result, run.seed, run.stream, run.truth_mode, run.align, run.bound_m,
-                    run.sim_id, time.monotonic() - t0)
+    measured = _measure(result, run.seed, run.stream, run.truth_mode, run.align, run.bound_m,
+                        run.sim_id, time.monotonic() - t0)
+    measured.cpu_s = time.process_time() - c0
+    return measured
 
 
 def assemble(plan: EvaluationPlan, runs: list[RunEvaluation],
