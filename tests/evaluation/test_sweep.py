@@ -25,7 +25,7 @@ pipelines: [still.yaml]
 grid:
   sources.sim.duration: [35, 3]     # 3 s ends before the INS has aligned: no poses
 seeds: {tuning: "100-101", report: "1000-1001"}
-baseline: {path: still.yaml, set: ["estimators.ins.align_gyro_bias=false"]}
+baseline: {path: still.yaml, set: ["estimators.ins.alignment.gyro_bias=false"]}
 """
 
 
@@ -69,12 +69,12 @@ def test_sweep_with_a_failing_cell(folder, capsys):
 def test_random_search_and_bad_sweep_files(folder):
     f = folder / "random.yaml"
     f.write_text("pipelines: [still.yaml]\nrandom:\n  samples: 5\n  seed: 3\n  params:\n"
-                 "    estimators.ins.alignment_duration: {uniform: [5.0, 9.0]}\n"
+                 "    estimators.ins.alignment.duration: {uniform: [5.0, 9.0]}\n"
                  "    estimators.dr.alignment: {choice: [pose, none]}\n"
                  "seeds: {tuning: '100-102', report: null}\n")
     a, b = load_sweep(f), load_sweep(f)
     assert a.settings == b.settings and len(a.settings) == 5         # drawn from its seed
-    assert all(5.0 <= dict(s.params)["estimators.ins.alignment_duration"] <= 9.0
+    assert all(5.0 <= dict(s.params)["estimators.ins.alignment.duration"] <= 9.0
                for s in a.settings)
     assert a.report_seeds == [] and a.goal == "min"
     f.write_text("pipelines: [still.yaml]\ngird: {x: [1]}\n")
@@ -94,7 +94,7 @@ def test_random_search_and_bad_sweep_files(folder):
 def test_interrupted_sweep_resumes_where_it_stopped(folder, repo):
     (folder / "sweep.yaml").write_text(
         "name: resume\npipelines: [still.yaml]\n"
-        "grid: {estimators.ins.align_gyro_bias: [true, false]}\n"
+        "grid: {estimators.ins.alignment.gyro_bias: [true, false]}\n"
         "seeds: {tuning: '100-103', report: null}\n")
     out = folder / "out"
     journal = out / "results.jsonl"

@@ -16,12 +16,11 @@ sources:
 sensors:
   - {id: imu, plugin: foot_imu, input: sim.imu}
 estimators:
-  - {id: ins, plugin: zupt_ins, input: imu.imu, align_gyro_bias: true, alignment_duration: 8.0}
+  - {id: ins, plugin: zupt_ins, input: imu.imu, alignment: {gyro_bias: true, duration: 8.0}}
   - id: dr
     plugin: dead_reckoning
     input: ins.odometry
-    alignment: pose
-    start_poses: {ff1: [5.12, 8.3, 0.06, 0.0]}
+    start: {mode: pose, agents: {ff1: {position: [5.12, 8.3, 0.06], heading: 0.0}}}
 """
 
 
@@ -57,7 +56,7 @@ def test_cli_evaluate_with_workers_writes_the_serial_json(tmp_path):
     for extra in ([], ["--workers", "2"]):
         out = tmp_path / f"e{len(docs)}.json"
         assert main(["evaluate", str(pipe), "--seeds", "100-103", "--baseline", str(pipe),
-                     "--baseline-set", "estimators.ins.align_gyro_bias=false",
+                     "--baseline-set", "estimators.ins.alignment.gyro_bias=false",
                      "--json", str(out), "--quiet", *extra]) == 0
         doc = json.loads(out.read_text())
         for part in (doc, doc["baseline"]):
