@@ -27,6 +27,9 @@ _LABELS = {
     "max_pct_distance": "max / distance [%]", "distance_m": "true distance [m]",
     "vertical_rmse_m": "vertical RMSE [m]", "floor_accuracy": "floor accuracy",
     "converge_s": "converged after [s]",
+    "ellipse95_containment": "truth in 95 % ellipse", "nees_xy": "NEES (x, y; 2 if consistent)",
+    "protection_containment": "error within protection radius",
+    "trusted_fraction": "trusted", "trusted_off_fraction": "trusted while > 3 m off",
 }
 
 
