@@ -45,7 +45,7 @@ def test_confidently_wrong_poses_are_counted_over_all_poses():
     cov = np.tile(np.eye(4) * 0.01, (10, 1, 1))
     m = metrics_of(track_errors(_track(t, xy, cov, pr, trusted), _truth(t)))
     assert m.trusted_off_fraction == pytest.approx(0.2)
-    assert m.trusted_fraction == pytest.approx(0.6)
+    assert m.trusted_fraction == pytest.approx(0.7)
     assert m.protection_containment == pytest.approx(6 / 9)   # the infinite radius promises nothing
 
 
