@@ -139,7 +139,7 @@ function drawPlan(plan, labels, s) {
   for (const e of f.entrances) {
     const [x, y] = e.position, dx = Math.cos(e.heading), dy = Math.sin(e.heading);
     el("line", { x1: x - 1.5 * dx, y1: y - 1.5 * dy, x2: x + 0.8 * dx, y2: y + 0.8 * dy,
-                 class: "entrance", "stroke-width": 3 * s, "marker-end": "url(#arrow)", "data-entrance": e.id }, plan);
+                 class: "entrance", "stroke-width": 3 * s, "marker-end": "url(#arrow-in)", "data-entrance": e.id }, plan);
     text(x - 2.2 * dx, y - 2.2 * dy, `▶ ${e.id}`, { class: "entrance-label", "font-size": 12 * s, "text-anchor": "middle" }, labels);
   }
   for (const a of f.anchors) {

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-__all__ = ["building_json", "north_in_plan"]
+__all__ = ["building_json", "north_in_plan", "true_turn"]
 
 
 def _r(v: float) -> float:
@@ -24,6 +24,12 @@ def _rings(geom: Any) -> list[list[list[float]]]:
     """Exterior rings of a (Multi)Polygon, each a closed list of (x, y) [m]."""
     return [_pts(np.asarray(p.exterior.coords)) for p in shapely.get_parts(geom)
             if p.geom_type == "Polygon" and not p.is_empty]
+
+
+def true_turn(georef: Any) -> np.ndarray:
+    """(2, 2) matrix taking plan (x, y) vectors to true (east, north) ones [m]."""
+    enu = georef.plan_to_enu(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
+    return np.column_stack([enu[1, :2] - enu[0, :2], enu[2, :2] - enu[0, :2]])
 
 
 def north_in_plan(georef: Any) -> dict:

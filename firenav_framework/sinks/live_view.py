@@ -6,11 +6,12 @@ acknowledgement on its ``diagnostics`` port (the incident log: route
 ``<id>.diagnostics`` to ``diagnostics_log`` and ``mcap_recorder``), and hands small
 items to the view's feed; the snapshot thread and the web server do everything else
 (:mod:`..liveview.feed`, :mod:`..liveview.server`). It measures the time the pipeline
-spends in it per message (``waits()``; counted as ``waits_over_bound`` when a message
-took longer than ``wait_bound``).
+spends in it per message (``waits()``, :class:`~..liveview.feed.WaitMeter`; counted as
+``waits_over_bound`` when a message held it up longer than ``wait_bound``).
 """
 from __future__ import annotations
 
+import json
 import math
 import os
 import queue
@@ -93,7 +94,7 @@ class LiveViewSink(Sink):
 
     # ------------------------------------------------------------------ pipeline thread
     def handle(self, stream: str, msg) -> None:
-        t_in = time.perf_counter()
+        t_in, cpu_in = time.perf_counter(), time.process_time()
         lock = 0.0
         while True:
             try:
@@ -107,9 +108,9 @@ class LiveViewSink(Sink):
             lock = max(lock, self._diagnostic(msg))
         elif isinstance(msg, Tick):
             lock = max(lock, self._tick(msg.t))
-        spent = time.perf_counter() - t_in
-        self.meter.record(spent, lock)
-        if spent > self.meter.bound:
+        over = self.meter.over
+        self.meter.record(time.perf_counter() - t_in, time.process_time() - cpu_in, lock)
+        if self.meter.over > over:
             self.ctx.count("waits_over_bound")
 
     def waits(self) -> dict:
@@ -127,8 +128,8 @@ class LiveViewSink(Sink):
             lock = 0.0
         else:
             lock = self.feed.put(("pose", msg.agent, msg.t,
-                                  [0.0, finite(p[0]), finite(p[1]), finite(p[2]), msg.floor,
-                                   0 if msg.trusted else 1]))
+                                  (finite(p[0]), finite(p[1]), finite(p[2]), msg.floor,
+                                   0 if msg.trusted else 1)))
         return max(lock, self._agent(msg.agent), self._alarms(changes, msg.t))
 
     def _diagnostic(self, msg: Diagnostic) -> float:
@@ -149,7 +150,8 @@ class LiveViewSink(Sink):
                                        "category": diagnostic_category(d.code)}))
 
     def _agent(self, agent: str) -> float:
-        item = _agent_json(self.tracker.agents[agent], self.tracker)
+        item = json.dumps(_agent_json(self.tracker.agents[agent], self.tracker),
+                          separators=(",", ":"), allow_nan=False).encode()
         if self._sent.get(agent) == item:
             return 0.0
         self._sent[agent] = item

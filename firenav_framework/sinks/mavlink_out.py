@@ -36,6 +36,7 @@ import numpy as np
 
 from ..contract import NoBuilding, Sink, param
 from ..liveview.alarms import ALARM_TITLES
+from ..liveview.plan import true_turn
 from ..liveview.status import StatusParams, StatusTracker
 from ..messages import Diagnostic, PoseEstimate, Tick
 from ..timefmt import clock_text
@@ -74,12 +75,6 @@ def ned_covariance(cov4: np.ndarray, turn: np.ndarray | None = None) -> list[flo
 def yaw_quaternion(yaw: float) -> list[float]:
     """(w, x, y, z) of a rotation by ``yaw`` about the down axis."""
     return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
-
-
-def _turn(georef) -> np.ndarray:
-    """(2, 2) matrix taking plan (x, y) vectors to true (east, north)."""
-    enu = georef.plan_to_enu(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
-    return np.column_stack([enu[1, :2] - enu[0, :2], enu[2, :2] - enu[0, :2]])
 
 
 class MavlinkOutSink(Sink):
@@ -122,7 +117,7 @@ class MavlinkOutSink(Sink):
                 self.georef = self.ctx.building.georef
             except NoBuilding:
                 self.georef = None
-        self.turn = None if self.georef is None else _turn(self.georef)
+        self.turn = None if self.georef is None else true_turn(self.georef)
         self.origin = None if self.georef is None else self.georef.to_wgs84(np.zeros((1, 3)))[0]
 
     def _sender(self, agent: str):

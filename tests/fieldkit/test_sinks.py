@@ -134,30 +134,35 @@ def test_mavlink_out_each_firefighter_is_a_system(tmp_path):
 
 
 def test_mcap_has_schemas_and_survives_truncation(tmp_path):
-    from mcap.reader import make_reader
-    from mcap.reader import NonSeekingReader
+    from mcap.reader import NonSeekingReader, make_reader
 
     sink, _, _ = make_component(McapRecorderSink, {"chunk_kb": 1}, output_dir=tmp_path)
     sink.start()
     poses = [pose(0.1 * k, f"ff{k % 3}", k, -k, heading=0.01 * k) for k in range(300)]
     for p in poses:
         sink.handle("ins.pose", p)
-    sink.handle("ins.diagnostics", Diagnostic(t=5.0, agent="ff1", component="ins",
+    sink.handle("ins.diagnostics", Diagnostic(t=35.0, agent="ff1", component="ins",
                                               level="warning", code="map_error", text="spread"))
     sink.finish()
     path = tmp_path / "fused.mcap"
     with open(path, "rb") as fh:
         reader = make_reader(fh)
-        got = [(ch.topic, sch.name, json.loads(m.data), m.log_time)
-               for sch, ch, m in reader.iter_messages()]
-    pose_rows = [g for g in got if g[0] == "ins.pose"]
-    assert len(pose_rows) == 300 and {g[1] for g in pose_rows} == {"firenav.PoseEstimate"}
-    body = pose_rows[7][2]
+        got = [(ch.topic, sch.name, m.data, m.log_time) for sch, ch, m in reader.iter_messages()]
+    # one topic per firefighter: the whole estimate as JSON, the pose in Foxglove's schema
+    topics = {(g[0], g[1]) for g in got}
+    assert {(f"/ins.pose/ff{k}", "firenav.PoseEstimate") for k in range(3)} <= topics
+    assert {(f"/ins.pose/ff{k}/pose", "foxglove.PoseInFrame") for k in range(3)} <= topics
+    ff1 = [g for g in got if g[0] == "/ins.pose/ff1"]
+    assert len(ff1) == 100
+    body = json.loads(ff1[2][2])   # the pose k=7
     assert body["agent"] == "ff1" and body["position"] == [7.0, -7.0, 0.0]
     assert np.array(body["cov"]) == pytest.approx(COV) and body["heading"] == pytest.approx(0.07)
-    assert pose_rows[7][3] == round(0.7 * 1e9)
-    diag = next(g for g in got if g[0] == "ins.diagnostics")
-    assert diag[1] == "firenav.Diagnostic" and diag[2]["code"] == "map_error"
+    assert ff1[2][3] == round(0.7 * 1e9)
+    diag = next(g for g in got if g[0] == "/ins.diagnostics")
+    assert diag[1] == "firenav.Diagnostic" and json.loads(diag[2])["code"] == "map_error"
+    assert ("/diagnostics", "foxglove.Log") in topics
+    # no plan: no walls, no location fixes
+    assert not [g for g in got if g[0] == "/building" or g[0].endswith("/fix")]
     # a killed run: no summary, file cut mid-chunk; a streaming reader gets the chunks before
     cut = tmp_path / "cut.mcap"
     shutil.copy(path, cut)
@@ -167,11 +172,72 @@ def test_mcap_has_schemas_and_survives_truncation(tmp_path):
     with open(cut, "rb") as fh:
         try:
             for _, ch, m in NonSeekingReader(fh).iter_messages(log_time_order=False):
-                read.append(json.loads(m.data)["t"])
+                if ch.message_encoding == "json" and ch.topic.startswith("/ins.pose/"):
+                    read.append(json.loads(m.data)["t"])
         except Exception:  # the torn chunk at the end
             pass
     assert 100 <= len(read) < 300
     assert read == [p.t for p in poses[:len(read)]]
+
+
+def test_mcap_opens_in_the_mcap_reader_with_foxglove_schemas(tmp_path):
+    """Decoded with the mcap reader's protobuf support (the schema bytes the file
+    carries, as Foxglove decodes them): poses in frame, location fixes at the plan's
+    WGS84 position, the walls of every floor as scene entities, the log."""
+    from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
+
+    from firenav_framework.building import bundled_plan, load_building
+
+    building = load_building(bundled_plan("three_storey"))
+    sink, _, _ = make_component(McapRecorderSink, {}, building=building, output_dir=tmp_path)
+    sink.start()
+    sink.handle("pf.pose", pose(1.0, "ff1", 12.0, 5.0, 3.5, heading=0.5, floor=1))
+    sink.handle("pf.pose", pose(2.0, "ff2", 3.0, 4.0, 0.0, heading=-1.0, floor=0))
+    sink.handle("ins.pose", PoseEstimate(t=2.5, agent="ff1", position=np.array([1.0, 2.0, 0.0]),
+                                         heading=0.0, cov=COV, frame="odometry"))
+    sink.handle("pf.diagnostics", Diagnostic(t=3.0, agent="ff1", component="pf",
+                                             level="error", code="map_error", text="spread"))
+    sink.finish()
+    with open(tmp_path / "fused.mcap", "rb") as fh:
+        reader = make_reader(fh)
+        summary = reader.get_summary()
+        schemas = {summary.channels[c].topic: summary.schemas[summary.channels[c].schema_id].name
+                   for c in summary.channels}
+        decoded = {}
+        factory = DecoderFactory()
+        for schema, ch, m in reader.iter_messages():
+            if ch.message_encoding == "protobuf":
+                obj = factory.decoder_for("protobuf", schema)(m.data)
+            else:
+                obj = json.loads(m.data)
+            decoded.setdefault(ch.topic, []).append(obj)
+    assert schemas["/pf.pose/ff1/pose"] == "foxglove.PoseInFrame"
+    assert schemas["/pf.pose/ff1/fix"] == "foxglove.LocationFix"
+    assert schemas["/building"] == "foxglove.SceneUpdate"
+    assert schemas["/diagnostics"] == "foxglove.Log"
+    assert schemas["/pf.pose/ff2"] == "firenav.PoseEstimate"
+    pif = decoded["/pf.pose/ff1/pose"][0]
+    assert pif.frame_id == "building"
+    assert (pif.pose.position.x, pif.pose.position.y, pif.pose.position.z) == (12.0, 5.0, 3.5)
+    assert 2 * math.atan2(pif.pose.orientation.z, pif.pose.orientation.w) == pytest.approx(0.5)
+    assert (pif.timestamp.seconds, pif.timestamp.nanos) == (1, 0)
+    fix = decoded["/pf.pose/ff1/fix"][0]
+    want = building.georef.to_wgs84(np.array([[12.0, 5.0, 3.5]]))[0]
+    assert (fix.longitude, fix.latitude, fix.altitude) == pytest.approx(tuple(want))
+    cov = np.array(fix.position_covariance).reshape(3, 3)   # ENU, turned by the bearing
+    assert np.trace(cov[:2, :2]) == pytest.approx(COV[0, 0] + COV[1, 1])
+    assert cov[2, 2] == pytest.approx(COV[2, 2])
+    # the INS pose is in its own frame: a PoseInFrame there, but no WGS84 fix
+    assert decoded["/ins.pose/ff1/pose"][0].frame_id == "odometry"
+    assert "/ins.pose/ff1/fix" not in decoded
+    (update,) = decoded["/building"]
+    assert [e.id for e in update.entities] == ["floor0", "floor1", "floor2"]
+    walls = update.entities[1].lines[0]
+    assert len(walls.points) == 2 * int((~building.floors[1].wall_is_obstacle).sum())
+    assert {p.z for p in walls.points} == {3.5}
+    (log,) = decoded["/diagnostics"]
+    assert log.name == "pf" and "[map_error] ff1: spread" == log.message
 
 
 def test_ground_station_reads_wgs84_positions_of_a_georeferenced_plan(tmp_path):
@@ -226,3 +292,75 @@ def test_ground_station_reads_wgs84_positions_of_a_georeferenced_plan(tmp_path):
     assert (local.x, local.y) == pytest.approx((-12.0 * math.sin(b) + 5.0 * math.cos(b),
                                                 12.0 * math.cos(b) + 5.0 * math.sin(b)))
     assert len(got["LOCAL_POSITION_NED"]) == 4  # the odometry-frame pose too
+
+
+def _ws_text_frames(sock, want: int, timeout: float = 30.0) -> list[dict]:
+    """Read server text frames (JSON) of a WebSocket until ``want`` arrived."""
+    import struct
+    import time as _time
+    buf, out = b"", []
+    end = _time.monotonic() + timeout
+    sock.settimeout(2.0)
+    while len(out) < want and _time.monotonic() < end:
+        try:
+            got = sock.recv(65536)
+        except socket.timeout:
+            continue
+        if not got:
+            break
+        buf += got
+        while len(buf) >= 2:
+            op, n = buf[0] & 0x0F, buf[1] & 0x7F
+            head = 2
+            if n == 126:
+                if len(buf) < 4:
+                    break
+                n, head = struct.unpack(">H", buf[2:4])[0], 4
+            elif n == 127:
+                if len(buf) < 10:
+                    break
+                n, head = struct.unpack(">Q", buf[2:10])[0], 10
+            if len(buf) < head + n:
+                break
+            payload, buf = buf[head:head + n], buf[head + n:]
+            if op == 1:
+                out.append(json.loads(payload))
+    return out
+
+
+def test_foxglove_live_server_advertises_the_topics_on_loopback(tmp_path):
+    """A raw WebSocket client speaking Foxglove's protocol (subprotocol foxglove.sdk.v1)
+    sees the server's info and the advertised channels with their schema names."""
+    import base64 as b64
+    import os
+
+    from firenav_framework.building import bundled_plan, load_building
+    from firenav_framework.sinks.foxglove_live import FoxgloveLiveSink
+
+    building = load_building(bundled_plan("three_storey"))
+    sink, _, _ = make_component(FoxgloveLiveSink, {"port": 0}, building=building,
+                                output_dir=tmp_path)
+    sink.start()
+    try:
+        port = sink.server.port
+        sink.handle("pf.pose", pose(1.0, "ff1", 12.0, 5.0, 3.5, floor=1))
+        sock = socket.create_connection(("127.0.0.1", port), timeout=30)
+        key = b64.b64encode(os.urandom(16)).decode()
+        sock.sendall((f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
+                      f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+                      "Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
+                      ).encode())
+        head = b""
+        while b"\r\n\r\n" not in head:
+            head += sock.recv(1)
+        assert head.startswith(b"HTTP/1.1 101"), head
+        frames = _ws_text_frames(sock, 2)
+        sock.close()
+    finally:
+        sink.finish()
+    ops = {f["op"]: f for f in frames}
+    assert ops["serverInfo"]["name"].startswith("firenav")
+    channels = {c["topic"]: c["schemaName"] for c in ops["advertise"]["channels"]}
+    assert channels["/pf.pose/ff1/pose"] == "foxglove.PoseInFrame"
+    assert channels["/pf.pose/ff1/fix"] == "foxglove.LocationFix"
+    assert channels["/building"] == "foxglove.SceneUpdate"
