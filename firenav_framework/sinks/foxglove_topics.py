@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import base64
 import dataclasses
+import functools
 import json
 import math
 import types
@@ -81,8 +82,10 @@ def _field_schema(tp: Any) -> dict:
     return {}
 
 
+@functools.lru_cache(maxsize=None)
 def json_schema(cls: type[Message]) -> dict:
-    """A JSON schema of a message dataclass (field names, types, the docstring)."""
+    """A JSON schema of a message dataclass (field names, types, the docstring); do not
+    change the (cached) result."""
     hints = typing.get_type_hints(cls)
     props = {f.name: _field_schema(hints.get(f.name)) for f in dataclasses.fields(cls)}
     return {"title": f"firenav.{cls.__name__}", "description": (cls.__doc__ or "").strip(),
@@ -130,6 +133,17 @@ class Record:
     log_time: int
 
 
+_SCHEMA_BYTES: dict[str, bytes] = {}
+
+
+def _schema_bytes(title: str, schema: dict) -> bytes:
+    """The encoded JSON schema, once per schema title."""
+    data = _SCHEMA_BYTES.get(title)
+    if data is None:
+        data = _SCHEMA_BYTES[title] = json.dumps(schema).encode()
+    return data
+
+
 def _ns(t: float) -> int:
     return max(0, round(t * 1e9)) if math.isfinite(t) else 0
 
@@ -160,8 +174,8 @@ class FoxgloveTopics:
         return Record(topic, name, enc, data, enc, obj.encode(), _ns(t))
 
     def _json(self, topic: str, schema: dict, data: bytes, t: float) -> Record:
-        return Record(topic, schema["title"], "jsonschema",
-                      json.dumps(schema).encode(), "json", data, _ns(t))
+        return Record(topic, schema["title"], "jsonschema", _schema_bytes(schema["title"], schema),
+                      "json", data, _ns(t))
 
     def _stamp(self, t: float) -> Any:
         ns = _ns(t)

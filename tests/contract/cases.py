@@ -47,6 +47,7 @@ def setup(kind: str, name: str, tmp: Path) -> dict[str, Any]:
         ("source", "udp_lines"): {"bind": f"127.0.0.1:{free_udp_port()}"},
         ("source", "serial_lines"): {"url": "loop://"},
         ("sink", "live_view"): {"port": 0},
+        ("sink", "foxglove_live"): {"port": 0},
         # the wall-clock column is when a line was written: two runs differ by design
         ("sink", "diagnostics_log"): {"wall_clock": False},
         ("sink", "mavlink_out"): {"url": f"udpout:127.0.0.1:{free_udp_port()}"},
