@@ -82,6 +82,11 @@ def _rfid():
             RfidEvent(2.0, "DEPLOY", "ff1/rfid", "E2BB02")]
 
 
+def _baro():
+    from firenav_framework.codecs.baro_lines import BaroReading
+    return [BaroReading(1.0, "ff1/baro", 101325.25, 294.65), BaroReading(1.1, "base/baro", 101337.5)]
+
+
 CODEC_SAMPLES.update({
     "can_imu": lambda: {"records": _imu_block(), "address": "node1"},
     "mavlink_imu": lambda: {"records": _imu_block(), "address": "sys1/comp1/imu0"},
@@ -89,4 +94,5 @@ CODEC_SAMPLES.update({
     "uwb_can": lambda: {"records": _twr(), "address": "1"},
     "uwb_lines": lambda: {"records": _twr(), "address": "1"},
     "rfid_lines": lambda: {"records": _rfid(), "address": "ff1/rfid"},
+    "baro_lines": lambda: {"records": _baro(), "address": "ff1/baro"},
 })
