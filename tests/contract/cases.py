@@ -36,10 +36,33 @@ def _recording(tmp: Path) -> dict[str, Any]:
     return {"params": {"path": str(good)}, "faulty_params": [{"path": str(bad)}]}
 
 
+def _barometer_lines() -> dict[str, Any]:
+    """30 s of barometer lines (no simulated barometer yet): ff1 and ff2 worn, ff1
+    climbing after the 10 s zeroing. No reference barometer, so that each firefighter's
+    lines alone give heights (the reset-refeed check feeds one firefighter's)."""
+    import numpy as np
+    from firenav_framework.codecs import to_raw_frames
+    from firenav_framework.codecs.baro_lines import BaroLinesCodec, BaroReading
+    rng = np.random.default_rng(5)
+    readings = []
+    for k, t in enumerate(np.arange(0.0, 30.0, 0.1)):
+        climb = max(0.0, t - 10.0) * 0.12 * 3.5 / 0.29  # Pa: 0.12 m/s up
+        readings += [BaroReading(float(t), "ff1/baro", 101_400.0 - climb + rng.normal(0, 2)),
+                     BaroReading(float(t) + 0.05, "ff2/baro", 101_250.0 + rng.normal(0, 2))]
+    import dataclasses
+    codec, frames = BaroLinesCodec(), []
+    for r in sorted(readings):   # one serial line per barometer, mapped to its wearer
+        (f,) = to_raw_frames(codec.encode([r]), transport="serial", device=r.device)
+        frames.append(dataclasses.replace(f, agent=r.device.split("/")[0]))
+    return {"params": {"reference": ""}, "sample_input": [("baro.raw", f) for f in frames]}
+
+
 def setup(kind: str, name: str, tmp: Path) -> dict[str, Any]:
     """Keyword arguments of :func:`firenav_framework.testing.plugin_case` for a plugin."""
     if (kind, name) == ("source", "recording"):
         return _recording(tmp)
+    if (kind, name) == ("sensor", "barometer"):
+        return _barometer_lines()
     params: dict[str, Any] = {
         ("source", "simulator"): {"duration": 10.0},
         ("source", "can_bus"): {"interface": "virtual", "channel": f"conformance-{tmp.name}"},
