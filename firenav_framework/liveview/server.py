@@ -19,7 +19,7 @@ import threading
 import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
-from typing import Any
+from typing import Any, NamedTuple
 from urllib.parse import parse_qs, urlsplit
 
 from .access import Access
@@ -37,13 +37,14 @@ MAX_CLIENTS = 64    # concurrent /events connections
 MAX_BODY = 4096     # bytes of an acknowledgement request
 
 
-class Ack(tuple):
-    """(alarm id, who, client address, wall clock [UNIX s]) of one acknowledgement."""
+class Ack(NamedTuple):
+    """One acknowledgement from the page: the alarm, who (as typed), the client's
+    address and the wall clock of the click [UNIX s]."""
 
-    __slots__ = ()
-
-    def __new__(cls, alarm_id: int, by: str, client: str, wall: float) -> "Ack":
-        return super().__new__(cls, (alarm_id, by, client, wall))
+    alarm_id: int
+    by: str
+    client: str
+    wall: float
 
 
 class LiveViewServer:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sys
 
-from ..contract import NoBuilding, Params, Sink, param
+from ..contract import Params, Sink, param
 from ..messages import Message
 from .foxglove_topics import FoxgloveTopics, Record
 
@@ -39,13 +39,7 @@ class FoxgloveLiveSink(Sink):
 
     def start(self) -> None:
         import foxglove
-        building = None
-        if self.ctx.has_building:
-            try:
-                building = self.ctx.building
-            except NoBuilding:
-                building = None
-        self.topics = FoxgloveTopics(building)
+        self.topics = FoxgloveTopics.of_context(self.ctx)
         self._fg = foxglove
         self._context = foxglove.Context()
         self._channels: dict[str, object] = {}

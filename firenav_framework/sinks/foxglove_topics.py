@@ -162,6 +162,18 @@ class FoxgloveTopics:
         self.georef = getattr(building, "georef", None)
         self._schemas: dict[str, tuple[str, str, bytes]] = {}
 
+    @classmethod
+    def of_context(cls, ctx: Any) -> "FoxgloveTopics":
+        """The topics of a sink's pipeline: with its building when it has one."""
+        from ..contract import NoBuilding
+        building = None
+        if ctx.has_building:
+            try:
+                building = ctx.building
+            except NoBuilding:
+                building = None
+        return cls(building)
+
     def _schema(self, cls: Any) -> tuple[str, str, bytes]:
         key = cls.__name__
         if key not in self._schemas:

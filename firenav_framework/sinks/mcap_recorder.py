@@ -19,7 +19,7 @@ import math
 import time
 import typing
 
-from ..contract import FileSink, NoBuilding, Params, param
+from ..contract import FileSink, Params, param
 from ..messages import Message
 from .foxglove_topics import FoxgloveTopics, Record
 
@@ -47,13 +47,7 @@ class McapRecorderSink(FileSink):
         self._writer = Writer(self._fh, chunk_size=self.params.chunk_kb * 1024,
                               compression=comp)
         self._writer.start(profile="", library="firenav")
-        building = None
-        if self.ctx.has_building:
-            try:
-                building = self.ctx.building
-            except NoBuilding:
-                building = None
-        self.topics = FoxgloveTopics(building)
+        self.topics = FoxgloveTopics.of_context(self.ctx)
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._seq: dict[str, int] = {}
