@@ -22,7 +22,8 @@ Encoding of the well-known schemas is Foxglove's own (the ``foxglove-sdk`` packa
     ``foxglove.Log`` of every diagnostic (name = component, level from ours);
 ``/incident_log``
     the alarm events and acknowledgements (codes ``alarm_*``) as JSON
-    (``firenav.IncidentLogEntry``);
+    (``firenav.IncidentLogEntry``: pipeline time, local clock and, with ``wall_clock``,
+    the wall-clock time written);
 ``/<stream>`` or ``/<stream>/<agent>``
     any other message as JSON with a schema generated from its dataclass (arrays as
     nested lists, bytes base64, non-finite floats null), per firefighter when it has
@@ -41,6 +42,7 @@ import math
 import types
 import typing
 from dataclasses import dataclass
+from datetime import datetime
 from typing import Any
 
 import numpy as np
@@ -65,7 +67,9 @@ INCIDENT_SCHEMA = {
                    "when": {"type": "string", "description": "t on the local clock"},
                    "code": {"type": "string"}, "agent": {"type": "string"},
                    "level": {"type": "string"}, "active": {"type": "boolean"},
-                   "component": {"type": "string"}, "text": {"type": "string"}}}
+                   "component": {"type": "string"}, "text": {"type": "string"},
+                   "wall": {"type": "string", "description": "local wall-clock time the "
+                            "entry was written (ISO 8601 with the UTC offset)"}}}
 
 
 def _field_schema(tp: Any) -> dict:
@@ -155,15 +159,16 @@ class FoxgloveTopics:
     location fixes.
     """
 
-    def __init__(self, building: Any = None):
+    def __init__(self, building: Any = None, *, wall_clock: bool = False):
         from foxglove import messages as fm
+        self.wall_clock = wall_clock
         self.fm = fm
         self.building = building
         self.georef = getattr(building, "georef", None)
         self._schemas: dict[str, tuple[str, str, bytes]] = {}
 
     @classmethod
-    def of_context(cls, ctx: Any) -> "FoxgloveTopics":
+    def of_context(cls, ctx: Any, *, wall_clock: bool = False) -> "FoxgloveTopics":
         """The topics of a sink's pipeline: with its building when it has one."""
         from ..contract import NoBuilding
         building = None
@@ -172,7 +177,7 @@ class FoxgloveTopics:
                 building = ctx.building
             except NoBuilding:
                 building = None
-        return cls(building)
+        return cls(building, wall_clock=wall_clock)
 
     def _schema(self, cls: Any) -> tuple[str, str, bytes]:
         key = cls.__name__
@@ -242,6 +247,8 @@ class FoxgloveTopics:
                      "when": clock_text(msg.t, date=True), "code": msg.code,
                      "agent": msg.agent, "level": msg.level, "active": msg.active,
                      "component": msg.component, "text": msg.text}
+            if self.wall_clock:
+                entry["wall"] = datetime.now().astimezone().isoformat(timespec="milliseconds")
             out.append(self._json("/incident_log", INCIDENT_SCHEMA,
                                   json.dumps(entry, separators=(",", ":")).encode(), msg.t))
         return out

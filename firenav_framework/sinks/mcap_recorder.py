@@ -38,6 +38,8 @@ class McapRecorderSink(FileSink):
                               "lose at most the chunk being filled")
         flush_s: float = param(0.5, gt=0, unit="s", description="flush to the operating "
                                "system at least this often (wall time)")
+        wall_clock: bool = param(True, description="incident-log entries carry the "
+                                 "wall-clock time they were written ('wall')")
 
     def start(self) -> None:
         from mcap.writer import CompressionType, Writer
@@ -47,7 +49,7 @@ class McapRecorderSink(FileSink):
         self._writer = Writer(self._fh, chunk_size=self.params.chunk_kb * 1024,
                               compression=comp)
         self._writer.start(profile="", library="firenav")
-        self.topics = FoxgloveTopics.of_context(self.ctx)
+        self.topics = FoxgloveTopics.of_context(self.ctx, wall_clock=self.params.wall_clock)
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._seq: dict[str, int] = {}
