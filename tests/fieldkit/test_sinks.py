@@ -14,6 +14,7 @@ from firenav_framework.messages import Diagnostic, PoseEstimate, Tick
 from firenav_framework.sinks.mavlink_out import MavlinkOutSink, ned_covariance
 from firenav_framework.sinks.mcap_recorder import McapRecorderSink
 from firenav_framework.testing import make_component
+from firenav_framework.timefmt import wall_text
 from firenav_framework.transports.mavlink_link import mavutil
 
 from .conftest import free_port
@@ -364,3 +365,34 @@ def test_foxglove_live_server_advertises_the_topics_on_loopback(tmp_path):
     assert channels["/pf.pose/ff1/pose"] == "foxglove.PoseInFrame"
     assert channels["/pf.pose/ff1/fix"] == "foxglove.LocationFix"
     assert channels["/building"] == "foxglove.SceneUpdate"
+
+
+def test_mavlink_out_silence_never_clears_a_man_down(tmp_path):
+    """The issue's case: 'ff3 man down cleared' at INFO when the downed firefighter's
+    device went silent. Now the man-down stays, and the heartbeat says EMERGENCY."""
+    port = free_port()
+    gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    gcs.bind(("127.0.0.1", port))
+    sink, _, _ = make_component(MavlinkOutSink, {"url": f"udpout:127.0.0.1:{port}"},
+                                output_dir=tmp_path)
+    sink.start()
+    t0 = 1_764_601_200.0
+    for k in range(35):
+        sink.handle("ticks", Tick(t=t0 + k, period=1.0))
+        sink.handle("pf.pose", pose(t0 + k, "ff3", 4.0, 2.0))
+    sink.handle("mav.diagnostics", Diagnostic(t=t0 + 35.5, agent="ff3", device="sys3/comp1",
+                                              component="mav", level="error",
+                                              code="device_silent", text=""))
+    for k in range(36, 80):
+        sink.handle("ticks", Tick(t=t0 + k, period=1.0))
+    sink.finish()
+    msgs = _receive_all(gcs)
+    gcs.close()
+    ml = mavutil().mavlink
+    texts = [(m.text, m.severity) for m in msgs if m.get_type() == "STATUSTEXT"]
+    assert texts == [(f"ff3 MAN DOWN since {wall_text(t0 + 30)}", ml.MAV_SEVERITY_EMERGENCY),
+                     (f"ff3 DEVICE SILENT since {wall_text(t0 + 35.5)}",
+                      ml.MAV_SEVERITY_CRITICAL)]
+    beats = [m.system_status for m in msgs if m.get_type() == "HEARTBEAT"]
+    first = beats.index(ml.MAV_STATE_EMERGENCY)   # from the tick at t0 + 30 to the end
+    assert beats[first:] == [ml.MAV_STATE_EMERGENCY] * (80 - 30)
