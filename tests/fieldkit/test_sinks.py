@@ -395,4 +395,5 @@ def test_mavlink_out_silence_never_clears_a_man_down(tmp_path):
                       ml.MAV_SEVERITY_CRITICAL)]
     beats = [m.system_status for m in msgs if m.get_type() == "HEARTBEAT"]
     first = beats.index(ml.MAV_STATE_EMERGENCY)   # from the tick at t0 + 30 to the end
-    assert beats[first:] == [ml.MAV_STATE_EMERGENCY] * (80 - 30)
+    assert set(beats[:first]) == {ml.MAV_STATE_ACTIVE}
+    assert set(beats[first:]) == {ml.MAV_STATE_EMERGENCY} and len(beats) - first >= 45
