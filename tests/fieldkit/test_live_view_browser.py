@@ -234,6 +234,7 @@ def test_live_incident_in_chromium(incident):
                   if ch.topic == "/incident_log"]
     assert [e["code"] for e in logged if e["agent"] == "ff3"][:3] == \
         ["alarm_man_down", "alarm_device_silent", "alarm_acknowledged"]
+    assert all(e["wall"][:2] == "20" and e["when"] for e in logged)
     if os.environ.get("FIRENAV_DOCS_SCREENSHOTS"):
         for name, path in shots.items():
             quantised_copy(path, DOCS_IMAGES / path.name)
