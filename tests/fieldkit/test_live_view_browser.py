@@ -64,10 +64,13 @@ def walk(k: int) -> list[PoseEstimate]:
 
 
 def quantised_copy(src: Path, dst: Path) -> None:
-    """A small PNG for the docs (256 colours)."""
+    """A small PNG for the docs (256 colours, no dithering: the firefighters' colours
+    stay theirs)."""
     from PIL import Image
     dst.parent.mkdir(parents=True, exist_ok=True)
-    Image.open(src).convert("RGB").quantize(colors=128).save(dst, optimize=True)
+    img = Image.open(src).convert("RGB")
+    img.quantize(colors=256, method=Image.Quantize.MAXCOVERAGE,
+                 dither=Image.Dither.NONE).save(dst, optimize=True)
 
 
 @pytest.fixture
