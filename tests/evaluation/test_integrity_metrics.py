@@ -54,8 +54,8 @@ def test_degenerate_covariances_are_left_out_and_pooling_keeps_every_sample():
     cov = np.tile(np.eye(4), (4, 1, 1))
     cov[0] = np.nan
     cov[1, :2, :2] = 0.0
-    a = track_errors(_track(t, np.ones((4, 2)), cov, np.full(4, 2.0), np.ones(4)), _truth(t))
-    assert np.isnan(a.mahalanobis2[:2]).all() and np.allclose(a.mahalanobis2[2:], 2.0)
+    a = track_errors(_track(t, np.full((4, 2), 2.0), cov, np.full(4, 2.0), np.ones(4)), _truth(t))
+    assert np.isnan(a.mahalanobis2[:2]).all() and np.allclose(a.mahalanobis2[2:], 8.0)
     b = track_errors(_track(t, np.zeros((4, 2)), np.tile(np.eye(4), (4, 1, 1)), np.full(4, 2.0),
                             np.zeros(4), agent="ff2"), _truth(t))
     pooled = pooled_metrics([a, b])
