@@ -27,6 +27,7 @@ from .contract.context import PIPELINE_DIR, NoBuilding
 from .messages import Diagnostic, Message
 from .pipeline import PipelineSpec
 from .stats import RunStats
+from .time_merge import merge_in_time
 from .timeline import Timeline
 from .tracks import Track, TrackStore
 
@@ -274,19 +275,15 @@ class Runner:
             yield f"{cid}.{port}", msg
 
     def _run_offline(self, sources: list[tuple[str, Source]], progress: _Progress) -> None:
-        heads: list[tuple[float, int, str, Message, Iterator]] = []
-        for i, (cid, src) in enumerate(sources):
-            it = self._source_iter(cid, src)
-            first = next(it, None)
-            if first is not None:
-                heapq.heappush(heads, (first[1].t, i, first[0], first[1], it))
-        while heads and not self._stop.is_set():
-            _, i, stream, msg, it = heapq.heappop(heads)
+        cfg = self.spec.timeline
+        merged = merge_in_time([self._source_iter(cid, src) for cid, src in sources],
+                               time_of=lambda item: item[1].t, max_lead=cfg.max_lead,
+                               jump_back=max(cfg.clock_jump, cfg.reorder_window))
+        for stream, msg in merged:
             self.timeline.push(stream, msg)
-            nxt = next(it, None)
-            if nxt is not None:
-                heapq.heappush(heads, (nxt[1].t, i, nxt[0], nxt[1], it))
             self._dispatch(self.timeline.release(), progress)
+            if self._stop.is_set():
+                break
         self._dispatch(self.timeline.release(flush=True), progress)
 
     def _run_live(self, sources: list[tuple[str, Source]], progress: _Progress) -> None:

@@ -13,7 +13,6 @@ header is a :class:`ReaderError` when the file is opened.
 """
 from __future__ import annotations
 
-import heapq
 import json
 from collections.abc import Iterator
 from pathlib import Path
@@ -24,6 +23,8 @@ from ...messages import (BreadcrumbDrop, GroundTruth, Message, Range, RssiReadin
                          TagDeployment, TagDetection)
 from ...formats.base import ReaderError, ReadOptions
 from ...formats.imu_csv import ImuCsvReader
+from ...time_merge import merge_in_time
+from ...timeline import TimelineConfig
 
 FORMAT = "firenav-sim-streams"
 
@@ -130,7 +131,9 @@ class SimStreamsReader:
             its.append(iter(ImuCsvReader(f, self.options)))
         if self.truth_file is not None:
             its.append(self._truth())
-        yield from heapq.merge(*its, key=lambda pm: pm[1].t)
+        rules = TimelineConfig()  # one device's clock jump must not reorder the others
+        yield from merge_in_time(its, time_of=lambda pm: pm[1].t, max_lead=rules.max_lead,
+                                 jump_back=rules.clock_jump)
 
 
 READERS = {".jsonl": SimStreamsReader}
