@@ -29,7 +29,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
 from pydantic import ValidationError
 
 from .bus import FAULT_POLICIES
@@ -109,9 +108,10 @@ def parse_override(expr: str) -> tuple[list[str], Any]:
     if not all(parts):
         raise ConfigError([Problem("--set", None, None, expr, "empty part in the key path")])
     try:
-        parsed = yaml.safe_load(value) if value.strip() else ""
-    except yaml.YAMLError as exc:
-        raise ConfigError([Problem("--set", None, None, expr, f"bad value: {exc}")]) from None
+        parsed = loads(value, "--set").data if value.strip() else ""
+    except ConfigError as exc:
+        raise ConfigError([Problem("--set", None, None, expr, f"bad value: {p.message}")
+                           for p in exc.problems]) from None
     return parts, parsed
 
 
