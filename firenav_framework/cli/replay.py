@@ -22,8 +22,8 @@ from ..summary import format_summary
 from ..transports.live_source import LiveSource
 from ..transports.recorders import log_files
 from ..yaml_locations import load
-from . import UsageError
-from .run import execute
+from . import UsageError, print_warnings
+from .run import execute, exit_code
 
 #: Suffixes of the logs the live sources write (first file of a rotated set is used).
 LOG_SUFFIXES = (".log", ".asc", ".blf", ".trc", ".tlog", ".lines")
@@ -86,8 +86,9 @@ def replay(args: argparse.Namespace) -> int:
     doc = replay_document(args.pipeline, args.logs)
     done = apply_overrides(doc, list(args.overrides)) if args.overrides else {}
     spec = validate_document(doc, overrides=done)
+    print_warnings(spec)
     out = args.output or Path("out") / f"{spec.name}-replay"
     result = execute(spec, out, realtime=args.realtime, speed=args.speed, quiet=args.quiet)
     print(format_summary(result))
     print(f"\nOutput written to {out}/", file=sys.stdout)
-    return 0
+    return exit_code(result)

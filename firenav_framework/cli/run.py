@@ -12,7 +12,7 @@ from ..registry import default_registry
 from ..runner import PipelineBuildError, Runner, RunResult
 from ..summary import format_summary, summary_dict
 from ..yaml_locations import load
-from . import UsageError
+from . import UsageError, print_warnings
 
 
 def add_run_arguments(p: argparse.ArgumentParser) -> None:
@@ -63,6 +63,7 @@ def prepare(args: argparse.Namespace) -> tuple[PipelineSpec, Path]:
     if args.input:
         overrides.insert(0, input_override(args.pipeline, args.input))
     spec = load_pipeline(args.pipeline, overrides)
+    print_warnings(spec)
     out = args.output or Path("out") / spec.name
     return spec, out
 
@@ -87,9 +88,22 @@ def execute(spec: PipelineSpec, out: Path, *, realtime: bool = False, speed: flo
     return result
 
 
+def exit_code(result: RunResult) -> int:
+    """0 for a clean run; 1 (with the reason on stderr) when a plugin faulted or when no
+    source delivered any data (the run produced nothing)."""
+    problems = []
+    if result.faults:
+        problems.append(f"{len(result.faults)} plugin fault(s), see 'Plugin faults' above")
+    if result.t_first is None:
+        problems.append("no source delivered any data")
+    for p in problems:
+        print(f"error: {p}", file=sys.stderr)
+    return 1 if problems else 0
+
+
 def run(args: argparse.Namespace) -> int:
     spec, out = prepare(args)
     result = execute(spec, out, realtime=args.realtime, speed=args.speed, quiet=args.quiet)
     print(format_summary(result))
     print(f"\nOutput written to {out}/")
-    return 0
+    return exit_code(result)

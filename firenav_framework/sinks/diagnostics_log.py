@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import json
 
-from ..contract import FileSink, Params, param
+from ..contract import FileSink, OutputName, Params, param
 from ..messages import Diagnostic
 
 
@@ -14,7 +14,7 @@ class DiagnosticsLogSink(FileSink):
     inputs = (Diagnostic,)
 
     class Params(Params):
-        file: str = param("diagnostics.jsonl", description="file name under the output folder")
+        file: OutputName = param("diagnostics.jsonl", description="file name under the output folder")
 
     def start(self) -> None:
         self._fh = None

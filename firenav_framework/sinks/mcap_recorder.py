@@ -22,7 +22,7 @@ import typing
 
 import numpy as np
 
-from ..contract import FileSink, Params, param
+from ..contract import FileSink, OutputName, Params, param
 from ..messages import Message
 
 _JSON_TYPES = {float: {"type": ["number", "null"]}, int: {"type": "integer"},
@@ -86,7 +86,7 @@ class McapRecorderSink(FileSink):
     inputs = (Message,)
 
     class Params(Params):
-        file: str = param("fused.mcap", description="file name under the output folder")
+        file: OutputName = param("fused.mcap", description="file name under the output folder")
         compression: typing.Literal["zstd", "lz4", "none"] = param(
             "zstd", description="chunk compression")
         chunk_kb: int = param(64, gt=0, unit="KiB", description="chunk size: a crash can "
