@@ -63,7 +63,7 @@ class TimelineConfig(BaseModel):
 
     reorder_window: float = Field(0.25, ge=0, description="hold messages this long [s] to reorder late arrivals", json_schema_extra={"unit": "s"})
     duplicates: Literal["drop", "keep"] = Field("drop", description="rule for exact duplicates")
-    duplicate_memory: int = Field(64, ge=1, description="messages per channel remembered for duplicate detection")
+    duplicate_memory: int = Field(64, ge=1, le=100_000, description="messages per channel remembered for duplicate detection")
     late: Literal["drop", "deliver"] = Field("drop", description="rule for messages older than ones already released")
     clock_jump: float = Field(5.0, gt=0, description="a time step back larger than this [s] is a clock jump", json_schema_extra={"unit": "s"})
     on_clock_jump: Literal["rebase", "drop"] = Field("rebase", description="rule for clock jumps")
