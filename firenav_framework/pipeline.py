@@ -17,8 +17,10 @@ Every component item has the common keys ``id`` (defaults to the plugin name),
 name instead of the one the name means, a built-in's first), ``input`` (a stream or a list of streams; ``comp.port``, or ``comp`` when
 it has one output port; shell-style wildcards allowed for sinks, matching every stream
 but other sinks' own), ``agents`` (only
-these firefighters) and ``on_error`` (fault policy); all other keys are the plugin's
-parameters. Only safe YAML is read and plugins are looked up by name in the
+these firefighters), ``on_error`` (fault policy) and ``watchdog`` (seconds one call
+into the plugin may take before it is interrupted and handled as a fault, 0: never;
+the pipeline's top-level ``watchdog`` sets the default, else 60 s; see
+:mod:`firenav_framework.watchdog`); all other keys are the plugin's parameters. Only safe YAML is read and plugins are looked up by name in the
 registry: a pipeline can never import arbitrary code.
 """
 from __future__ import annotations
@@ -26,6 +28,7 @@ from __future__ import annotations
 import copy
 import difflib
 import fnmatch
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,12 +43,13 @@ from .messages import Diagnostic, Message
 from .plugin_docs import fields_at
 from .registry import PluginInfo, Registry, default_registry, split_pin
 from .timeline import TimelineConfig
+from .watchdog import DEFAULT_LIMIT_S
 from .yaml_locations import ConfigError, LocatedDocument, Problem, format_path, load, loads
 
 SECTIONS = {"sources": "source", "sensors": "sensor", "estimators": "estimator",
             "sinks": "sink"}
-TOP_KEYS = ("name", "description", "building", "timeline", "on_error", *SECTIONS)
-COMMON_KEYS = ("id", "plugin", "input", "agents", "on_error")
+TOP_KEYS = ("name", "description", "building", "timeline", "on_error", "watchdog", *SECTIONS)
+COMMON_KEYS = ("id", "plugin", "input", "agents", "on_error", "watchdog")
 
 
 @dataclass
@@ -60,6 +64,7 @@ class ComponentSpec:
     inputs: list[str] = field(default_factory=list)
     agents: frozenset[str] | None = None
     on_error: str = "disable_agent"
+    watchdog: float | None = DEFAULT_LIMIT_S  # time limit of one call [s]; None: not timed
     parent: str | None = None  # the estimator a constraint is attached to
     outputs: dict[str, type[Message]] = field(default_factory=dict)
 
@@ -207,6 +212,17 @@ class _Validator:
                 return
         self.problems.append(self.doc.problem(path, message))
 
+    def time_limit(self, value: Any, path: tuple) -> float | None:
+        """A ``watchdog`` value: seconds > 0, or 0 / null for no limit."""
+        if value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)
+                             and value == 0):
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value) or value < 0:
+            self.problem(path, "watchdog must be a number of seconds (0: no limit)")
+            return DEFAULT_LIMIT_S
+        return float(value)
+
     def unknown_plugin(self, kind: str, name: str, pin: str | None) -> str:
         """Why no plugin answers to ``name`` (``@pin``): the closest names, or its
         import failure, or which packages offer it."""
@@ -273,6 +289,8 @@ class _Validator:
                                    or not all(isinstance(a, str) for a in agents)):
             self.problem(path + ("agents",), "agents must be a list of firefighter ids")
             agents = None
+        watchdog = self.time_limit(item.get("watchdog", self.default_watchdog),
+                                   path + ("watchdog",))
         on_error = item.get("on_error", self.default_policy)
         if on_error not in FAULT_POLICIES:
             self.problem(path + ("on_error",), f"on_error must be one of {', '.join(FAULT_POLICIES)}")
@@ -294,7 +312,8 @@ class _Validator:
             return None
         return ComponentSpec(id=cid, kind=kind, plugin=info, params=params, path=path,
                              inputs=inputs, agents=frozenset(agents) if agents else None,
-                             on_error=on_error, parent=parent, outputs=outputs)
+                             on_error=on_error, watchdog=watchdog, parent=parent,
+                             outputs=outputs)
 
     def run(self) -> tuple[list[ComponentSpec], TimelineConfig, str]:
         data = self.doc.data
@@ -309,6 +328,8 @@ class _Validator:
                                  or "/" in name or "\\" in name or name == "."):
             self.problem(("name",), f"name {name!r} must be a plain name (no '/', no '..'): "
                          "it names the default output folder out/<name>")
+        self.default_watchdog = self.time_limit(data.get("watchdog", DEFAULT_LIMIT_S),
+                                                ("watchdog",))
         self.default_policy = data.get("on_error", "disable_agent")
         if self.default_policy not in FAULT_POLICIES:
             self.problem(("on_error",), f"on_error must be one of {', '.join(FAULT_POLICIES)}")

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
 from pathlib import Path
 
@@ -75,15 +74,11 @@ def execute(spec: PipelineSpec, out: Path, *, realtime: bool = False, speed: flo
         raise UsageError("--speed must be positive")
     out.mkdir(parents=True, exist_ok=True)
     runner = Runner(spec, output_dir=out, realtime=realtime, speed=speed,
-                    progress=None if quiet else sys.stderr)
-    previous = signal.getsignal(signal.SIGTERM)
-    signal.signal(signal.SIGTERM, lambda *_: runner.stop())
+                    progress=None if quiet else sys.stderr, hard_exit=True)
     try:
-        result = runner.run()
+        result = runner.run()  # SIGTERM and Ctrl-C end it cleanly (see watchdog.py)
     except PipelineBuildError as exc:
         raise UsageError(str(exc)) from None
-    finally:
-        signal.signal(signal.SIGTERM, previous)
     (out / "summary.json").write_text(json.dumps(summary_dict(result), indent=1) + "\n")
     return result
 
