@@ -10,8 +10,7 @@ from typing import Literal
 
 import numpy as np
 
-from firenav_framework import Estimator, Odometry, Params, PerAgent, PoseEstimate, Sink, param
-from firenav_framework.messages import Message
+from firenav_framework import Estimator, Odometry, Params, PerAgent, PoseEstimate, param
 
 MODES = Literal["none", "hang", "sleep", "exit", "interrupt", "swallow", "regex", "mutate",
                 "relabel"]
@@ -70,18 +69,3 @@ class RogueEstimator(Estimator):
             self.ctx.publish("pose", PoseEstimate(t=msg.t, agent="ghost", position=np.zeros(3),
                                                   heading=0.0, cov=np.eye(4)))
 
-
-class Keep(Sink):
-    """Keeps what it receives."""
-
-    name = "keep"
-    inputs = (Message,)
-
-    class Params(Params):
-        pass
-
-    def start(self) -> None:
-        self.got: list = []
-
-    def handle(self, stream: str, msg: Message) -> None:
-        self.got.append(msg)

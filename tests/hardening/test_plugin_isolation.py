@@ -14,12 +14,11 @@ from firenav_framework.pipeline import load_pipeline_text
 from firenav_framework.runner import run_pipeline
 
 from tests.core.toys import toy_registry
-from tests.hardening.rogues import Keep, RogueEstimator
+from tests.hardening.rogues import RogueEstimator
 from tests.hardening.vendor import REPO, make_dist
 
 REG = toy_registry()
 REG.add(RogueEstimator, package="rogues")
-REG.add(Keep, package="rogues")
 STEPS = [[float(t), a, 1.0] for t in range(1, 11) for a in ("ff1", "ff2")]
 
 
@@ -29,7 +28,7 @@ sources: [{{id: src, plugin: script, steps: {json.dumps(STEPS)}}}]
 estimators:
   - {{id: rogue, plugin: rogue, input: src.odo, mode: {mode}, watchdog: {watchdog}{extra}}}
   - {{id: other, plugin: integrate, input: src.odo}}
-sinks: [{{id: keep, plugin: keep, input: "*.pose"}}]
+sinks: [{{id: keep, plugin: collect, input: "*.pose"}}]
 """
 
 
@@ -116,7 +115,7 @@ def start_run(site, tmp_path, mode: str, watchdog: float) -> subprocess.Popen:
     marker = tmp_path / "marker"
     path = tmp_path / "p.yaml"
     path.write_text(f"watchdog: {watchdog}\n" + pipeline(mode, watchdog, extra=f", marker: '{marker}'")
-                    .replace('sinks: [{id: keep, plugin: keep, input: "*.pose"}]',
+                    .replace('sinks: [{id: keep, plugin: collect, input: "*.pose"}]',
                              'sinks: [{plugin: csv_tracks, input: "*.pose"}]'))
     env = {"PYTHONPATH": f"{site}:{REPO}", "PATH": "/usr/bin:/bin"}
     return subprocess.Popen([sys.executable, "-m", "firenav_framework", "run", str(path),
