@@ -99,6 +99,10 @@ def merge_in_time(inputs: Iterable[Iterable[T]], *, time_of: Callable[[T], float
     timeline's ``clock_jump`` and ``max_lead``). Ties go to the earlier input. Inputs
     are read lazily, at most three items ahead.
     """
+    inputs = list(inputs)
+    if len(inputs) == 1:  # nothing to merge
+        yield from inputs[0]
+        return
     heads: list[tuple[float, int, int, object, _Input]] = []
     seq = 0
     for i, items in enumerate(inputs):

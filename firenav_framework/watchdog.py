@@ -30,7 +30,6 @@ frozen, and the raw recordings written so far are intact.
 from __future__ import annotations
 
 import ctypes
-import dataclasses
 import faulthandler
 import logging
 import math
@@ -39,7 +38,7 @@ import signal
 import sys
 import threading
 import time
-from dataclasses import dataclass
+from typing import NamedTuple
 
 __all__ = ["PluginTimeout", "PluginInterrupted", "Watchdog", "DEFAULT_LIMIT_S",
            "LIFECYCLE_FACTOR", "HARD_EXIT_FACTOR", "STOP_GRACE_S"]
@@ -66,8 +65,9 @@ class PluginInterrupted(BaseException):
     """A plugin call was cut short because the run is stopping (SIGTERM, Ctrl-C)."""
 
 
-@dataclass(frozen=True)
-class _Call:
+class _Call(NamedTuple):
+    """The plugin call in progress (a tuple: made once per call, so it must be cheap)."""
+
     token: int
     component: str
     what: str
@@ -75,14 +75,16 @@ class _Call:
     deadline: float   # monotonic [s]
     stopping: bool = False
 
-    def text(self) -> str:
-        if self.stopping:
-            return (f"{self.what} of '{self.component}' did not return within "
-                    f"{self.limit:g} s of the request to stop")
-        return f"{self.what} of '{self.component}' did not return within {self.limit:g} s (watchdog)"
 
-    def error(self) -> BaseException:
-        return (PluginInterrupted if self.stopping else PluginTimeout)(self.text())
+def _text(call: _Call) -> str:
+    if call.stopping:
+        return (f"{call.what} of '{call.component}' did not return within {call.limit:g} s "
+                "of the request to stop")
+    return f"{call.what} of '{call.component}' did not return within {call.limit:g} s (watchdog)"
+
+
+def _error(call: _Call) -> BaseException:
+    return (PluginInterrupted if call.stopping else PluginTimeout)(_text(call))
 
 
 class Watchdog:
@@ -130,9 +132,8 @@ class Watchdog:
         self._grace = grace
         call = self.current
         if call is not None:
-            self.current = dataclasses.replace(
-                call, limit=min(call.limit, grace), stopping=True,
-                deadline=min(call.deadline, time.monotonic() + grace))
+            self.current = call._replace(limit=min(call.limit, grace), stopping=True,
+                                         deadline=min(call.deadline, time.monotonic() + grace))
 
     def last_overrun(self) -> str:
         """What the last interruption was about (one raised in another thread carries no
@@ -168,7 +169,7 @@ class Watchdog:
     def _on_wake(self, signum: int, frame: object) -> None:
         call = self.current
         if call is not None and call.token in self._fired:
-            raise call.error()
+            raise _error(call)
 
     def _watch(self) -> None:
         poll = 0.05
@@ -195,7 +196,7 @@ class Watchdog:
             if self.current is not call:
                 return
             self._fired = {call.token: now}
-            self._last = call.text()
+            self._last = _text(call)
             if self._in_main:
                 signal.pthread_kill(self._owner, WAKE_SIGNAL)
             else:
@@ -206,7 +207,7 @@ class Watchdog:
     def _exit(call: _Call) -> None:
         """The last resort: a call that cannot be stopped ends the process."""
         log.critical("%s and cannot be interrupted (native code, or it ignores the "
-                     "interruption); ending the process", call.text())
+                     "interruption); ending the process", _text(call))
         sys.stderr.flush()
         faulthandler.dump_traceback(_stderr(), all_threads=True)
         os._exit(1)
