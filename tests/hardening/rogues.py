@@ -10,28 +10,24 @@ from typing import Literal
 
 import numpy as np
 
-from firenav_framework import Estimator, Odometry, Params, PerAgent, PoseEstimate, param
+from firenav_framework import Odometry, PoseEstimate, param
+
+from tests.core.toys import Integrate
 
 MODES = Literal["none", "hang", "sleep", "exit", "interrupt", "swallow", "regex", "mutate",
                 "relabel"]
 
 
-class RogueEstimator(Estimator):
+class RogueEstimator(Integrate):
     """Dead-reckons odometry into poses; misbehaves as told for one agent from time ``at``."""
 
     name = "rogue"
-    inputs = (Odometry,)
-    outputs = {"pose": PoseEstimate}
 
-    class Params(Params):
+    class Params(Integrate.Params):
         mode: MODES = param("none", description="how to misbehave")
         agent: str = param("ff1", description="whose data trigger it")
         at: float = param(3.0, unit="s", description="from this time on")
         marker: str = param("", description="file written just before misbehaving")
-
-    def __init__(self, params, ctx):
-        super().__init__(params, ctx)
-        self.pos = PerAgent(lambda agent: np.zeros(3))
 
     def handle(self, stream: str, msg: Odometry) -> None:
         p = self.params
@@ -39,10 +35,7 @@ class RogueEstimator(Estimator):
             if p.marker:
                 Path(p.marker).write_text("now")
             self.misbehave(msg)
-        self.pos[msg.agent] = self.pos[msg.agent] + msg.delta
-        self.ctx.publish("pose", PoseEstimate(t=msg.t, agent=msg.agent,
-                                              position=self.pos[msg.agent], heading=0.0,
-                                              cov=np.eye(4) * 0.1))
+        super().handle(stream, msg)
 
     def misbehave(self, msg: Odometry) -> None:
         mode = self.params.mode
