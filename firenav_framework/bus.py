@@ -55,7 +55,8 @@ class Subscription:
     agents: frozenset[str] | None = None  # None: every agent
     max_restarts: int = 3
     watchdog: float | None = None  # time limit of one call [s]; None: not timed
-    #: every agent whose data the component has received (for relabelling checks)
+    #: every agent (and radio node) whose data the component has received, for the
+    #: runner's relabelling check
     received: set[str] = field(default_factory=set)
 
 
@@ -108,6 +109,8 @@ class Bus:
             return
         if agent:
             sub.received.add(agent)
+        for name in msg.node_fields:
+            sub.received.add(getattr(msg, name))
         wd = self.watchdog
         try:
             if wd is not None:

@@ -88,6 +88,9 @@ class Message:
     #: True for data that arrive at a steady rate, where a silence means trouble (the
     #: timeline reports gaps only for these); events such as a tag read are not.
     periodic: ClassVar[bool] = False
+    #: Fields naming radio nodes (anchors, breadcrumbs, firefighters' radios) that an
+    #: estimator may publish poses of, besides the agents of its input.
+    node_fields: ClassVar[tuple[str, ...]] = ()
 
     def shifted(self, dt: float) -> "Message":
         """The same message with every time field moved by ``dt`` seconds."""
@@ -199,6 +202,7 @@ class Range(Message):
     method: str = "uwb"
     nlos: bool = False
     kind: ClassVar[str] = "range"
+    node_fields: ClassVar[tuple[str, ...]] = ("a", "b")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -209,6 +213,7 @@ class RssiReading(Message):
     rx: str
     rssi_dbm: float
     kind: ClassVar[str] = "rssi"
+    node_fields: ClassVar[tuple[str, ...]] = ("tx", "rx")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -236,6 +241,7 @@ class BreadcrumbDrop(Message):
 
     node_id: str
     kind: ClassVar[str] = "breadcrumb_drop"
+    node_fields: ClassVar[tuple[str, ...]] = ("node_id",)
 
 
 def _check_cov4(msg: "Message", what: str) -> None:

@@ -169,19 +169,24 @@ class Runner:
                              f"'{port}'; its ports are {', '.join(spec.outputs)}")
         if msg.agent and spec.kind != "source" and not isinstance(msg, Diagnostic):
             received = self.subs[cid].received
-            if received and msg.agent not in received:
+            owner = msg.device.partition("/")[0] if "/" in msg.device else ""
+            if received and (msg.agent not in received or (
+                    owner and owner != msg.agent and owner in received)):
                 self._relabelled(cid, msg, received)
         self.bus.publish(f"{cid}.{port}", msg)
 
     def _relabelled(self, cid: str, msg: Message, received: set[str]) -> None:
-        """A component published for an agent it never received data of: say so once."""
+        """A component published for an agent it never received data of, or published
+        another agent's device under this agent: say so once (and count every time)."""
         self.stats.count(cid, "agent_relabelled")
         if (cid, msg.agent) in self._relabels:
             return
         self._relabels.add((cid, msg.agent))
+        what = (f"device '{msg.device}' of another firefighter" if msg.agent in received
+                else f"data only of {', '.join(sorted(received))}")
         text = (f"'{cid}' published a {type(msg).__name__} of agent '{msg.agent}' but has "
-                f"received data only of {', '.join(sorted(received))}: it relabels agents "
-                "(expected only where its parameters map devices to agents)")
+                f"received {what}: it relabels agents (expected only where its parameters "
+                "map devices to agents)")
         log.warning(text)
         self.diagnostics.append(Diagnostic(t=msg.t, agent=msg.agent, component="runner",
                                            level="warning", code="agent_relabelled", text=text))

@@ -15,7 +15,7 @@ from firenav_framework import Odometry, PoseEstimate, param
 from tests.core.toys import Integrate
 
 MODES = Literal["none", "hang", "sleep", "exit", "interrupt", "swallow", "regex", "mutate",
-                "relabel"]
+                "relabel", "swap"]
 
 
 class RogueEstimator(Integrate):
@@ -58,6 +58,10 @@ class RogueEstimator(Integrate):
             re.match(r"(a+)+$", "a" * 40 + "b")
         if mode == "mutate":
             msg.delta[0] = 1000.0
+        if mode == "swap":   # ff1's data published as ff2's
+            self.ctx.publish("pose", PoseEstimate(t=msg.t, agent="ff2", device=msg.device,
+                                                  position=np.zeros(3), heading=0.0,
+                                                  cov=np.eye(4)))
         if mode == "relabel":
             self.ctx.publish("pose", PoseEstimate(t=msg.t, agent="ghost", position=np.zeros(3),
                                                   heading=0.0, cov=np.eye(4)))

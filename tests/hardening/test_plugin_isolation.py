@@ -81,6 +81,13 @@ def test_a_plugin_publishing_for_an_agent_it_never_received_is_reported(tmp_path
     assert "other" not in res.stats.counts or "agent_relabelled" not in res.stats.counts["other"]
 
 
+def test_a_plugin_publishing_one_firefighters_device_as_another_is_reported(tmp_path):
+    res = run(pipeline("swap"), tmp_path)
+    assert res.stats.counts["rogue"]["agent_relabelled"] == 8
+    (diag,) = [d for d in res.diagnostics if d.code == "agent_relabelled"]
+    assert "of agent 'ff2' but has received device 'ff1/imu' of another firefighter" in diag.text
+
+
 @pytest.mark.timeout(60)
 def test_ctrl_c_stops_the_run_cleanly_even_while_a_plugin_hangs(tmp_path):
     """A real SIGINT is no plugin's KeyboardInterrupt: the run stops, what arrived is used,
