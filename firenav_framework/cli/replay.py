@@ -32,9 +32,9 @@ from ..summary import format_summary, summary_dict
 from ..transports.live_source import LiveSource
 from ..transports.recorders import log_files
 from ..yaml_locations import load
-from . import UsageError
+from . import UsageError, print_warnings
 from ._executor import add_executor_arguments, open_executor
-from .run import execute
+from .run import execute, exit_code
 
 #: Suffixes of the logs the live sources write (first file of a rotated set is used).
 LOG_SUFFIXES = (".log", ".asc", ".blf", ".trc", ".tlog", ".lines")
@@ -229,8 +229,9 @@ def replay(args: argparse.Namespace) -> int:
     if found is not None:
         return replay_many(args, found)
     spec = _spec(args.pipeline, args.logs[0], args.overrides)
+    print_warnings(spec)
     out = args.output or Path("out") / f"{spec.name}-replay"
     result = execute(spec, out, realtime=args.realtime, speed=args.speed, quiet=args.quiet)
     print(format_summary(result))
     print(f"\nOutput written to {out}/", file=sys.stdout)
-    return 0
+    return exit_code(result)

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
 from pathlib import Path
 
@@ -12,7 +11,7 @@ from ..registry import default_registry
 from ..runner import PipelineBuildError, Runner, RunResult
 from ..summary import format_summary, summary_dict
 from ..yaml_locations import load
-from . import UsageError
+from . import UsageError, print_warnings
 
 
 def add_run_arguments(p: argparse.ArgumentParser) -> None:
@@ -63,6 +62,7 @@ def prepare(args: argparse.Namespace) -> tuple[PipelineSpec, Path]:
     if args.input:
         overrides.insert(0, input_override(args.pipeline, args.input))
     spec = load_pipeline(args.pipeline, overrides)
+    print_warnings(spec)
     out = args.output or Path("out") / spec.name
     return spec, out
 
@@ -74,17 +74,26 @@ def execute(spec: PipelineSpec, out: Path, *, realtime: bool = False, speed: flo
         raise UsageError("--speed must be positive")
     out.mkdir(parents=True, exist_ok=True)
     runner = Runner(spec, output_dir=out, realtime=realtime, speed=speed,
-                    progress=None if quiet else sys.stderr)
-    previous = signal.getsignal(signal.SIGTERM)
-    signal.signal(signal.SIGTERM, lambda *_: runner.stop())
+                    progress=None if quiet else sys.stderr, hard_exit=True)
     try:
-        result = runner.run()
+        result = runner.run()  # SIGTERM and Ctrl-C end it cleanly (see watchdog.py)
     except PipelineBuildError as exc:
         raise UsageError(str(exc)) from None
-    finally:
-        signal.signal(signal.SIGTERM, previous)
     (out / "summary.json").write_text(json.dumps(summary_dict(result), indent=1) + "\n")
     return result
+
+
+def exit_code(result: RunResult) -> int:
+    """0 for a clean run; 1 (with the reason on stderr) when a plugin faulted or when no
+    source delivered any data (the run produced nothing)."""
+    problems = []
+    if result.faults:
+        problems.append(f"{len(result.faults)} plugin fault(s), see 'Plugin faults' above")
+    if result.t_first is None:
+        problems.append("no source delivered any data")
+    for p in problems:
+        print(f"error: {p}", file=sys.stderr)
+    return 1 if problems else 0
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,4 +101,4 @@ def run(args: argparse.Namespace) -> int:
     result = execute(spec, out, realtime=args.realtime, speed=args.speed, quiet=args.quiet)
     print(format_summary(result))
     print(f"\nOutput written to {out}/")
-    return 0
+    return exit_code(result)

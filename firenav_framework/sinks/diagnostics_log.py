@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 from datetime import datetime
 
-from ..contract import FileSink, Params, param
+from ..contract import FileSink, OutputName, Params, param
 from ..messages import Diagnostic
 from ..timefmt import clock_text
 
@@ -26,7 +26,7 @@ class DiagnosticsLogSink(FileSink):
     inputs = (Diagnostic,)
 
     class Params(Params):
-        file: str = param("diagnostics.jsonl", description="file name under the output folder")
+        file: OutputName = param("diagnostics.jsonl", description="file name under the output folder")
         wall_clock: bool = param(True, description="add the wall-clock time each line was "
                                  "written ('wall'); off: the file depends on the data only")
 

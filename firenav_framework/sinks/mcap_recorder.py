@@ -19,7 +19,9 @@ import math
 import time
 import typing
 
-from ..contract import FileSink, Params, param
+import numpy as np
+
+from ..contract import FileSink, OutputName, Params, param
 from ..messages import Message
 from .foxglove_topics import FoxgloveTopics, Record
 
@@ -31,10 +33,10 @@ class McapRecorderSink(FileSink):
     inputs = (Message,)
 
     class Params(Params):
-        file: str = param("fused.mcap", description="file name under the output folder")
+        file: OutputName = param("fused.mcap", description="file name under the output folder")
         compression: typing.Literal["zstd", "lz4", "none"] = param(
             "zstd", description="chunk compression")
-        chunk_kb: int = param(64, gt=0, unit="KiB", description="chunk size: a crash can "
+        chunk_kb: int = param(64, gt=0, le=65536, unit="KiB", description="chunk size: a crash can "
                               "lose at most the chunk being filled")
         flush_s: float = param(0.5, gt=0, unit="s", description="flush to the operating "
                                "system at least this often (wall time)")

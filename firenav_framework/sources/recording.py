@@ -3,9 +3,14 @@
 The reader is chosen by the file's suffix (or the ``format`` parameter) from the
 table in :mod:`firenav_framework.sources.readers`, which says what each format
 yields. ``firenav run PIPELINE --input FILE`` sets ``path``.
+
+What a reader reports with ``options.warn`` (an empty log, a damaged region skipped, a
+device's file that cannot be read) goes to the log (stderr) at once and becomes a
+``warning`` diagnostic of this source, once per message.
 """
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -14,6 +19,8 @@ from pydantic import field_validator
 from ..contract import Params, Source, param
 from ..messages import Message
 from .readers import PORTS, ReaderError, ReadOptions, find_reader, reader_table
+
+log = logging.getLogger("firenav.recording")
 
 
 class RecordingSource(Source):
@@ -60,9 +67,23 @@ class RecordingSource(Source):
         if not path.is_file():
             raise ReaderError(f"recording '{params.path}' not found (looked for {path})")
         self.path: Path = path
+        self._pending: list[tuple[str, str]] | None = []  # warnings before start()
+        self._t = 0.0
         options = ReadOptions(agent=params.agent, device=params.device or "",
-                              block_s=params.block_s, count=ctx.count)
+                              block_s=params.block_s, count=ctx.count, warn=self._warn)
         self._reader = find_reader(path, params.format)(path, options)
+
+    def _warn(self, code: str, text: str) -> None:
+        log.warning("%s: %s", self.ctx.id, text)
+        if self._pending is not None:
+            self._pending.append((code, text))
+        else:
+            self.ctx.warn_once(self._t, code, text, key=text)
+
+    def start(self) -> None:
+        pending, self._pending = self._pending or [], None
+        for code, text in pending:
+            self.ctx.warn_once(self._t, code, text, key=text)
 
     def duration(self) -> tuple[float, float] | None:
         span = getattr(self._reader, "duration", lambda: None)()
@@ -73,4 +94,6 @@ class RecordingSource(Source):
     def messages(self) -> Iterator[tuple[str, Message]]:
         dt = self.params.time_offset
         for port, msg in self._reader:
-            yield port, (msg.shifted(dt) if dt else msg)
+            msg = msg.shifted(dt) if dt else msg
+            self._t = msg.t
+            yield port, msg

@@ -405,8 +405,9 @@ def test_a_device_reboot_reanchors_its_clock_and_is_reported():
            for i, f in enumerate(frames)]
     out, diags, counts = run({}, raw)
     tk = joined(out)[0]
-    assert counts == {"clock_resyncs": 1} and len(tk) == 100
-    np.testing.assert_allclose(tk, 100.0 + np.arange(100) * 0.005, atol=1e-6)
+    # the new clock is confirmed by its second sample: its first one is dropped
+    assert counts == {"clock_resyncs": 1, "time_backwards_samples": 1} and len(tk) == 99
+    np.testing.assert_allclose(tk, 100.0 + np.delete(np.arange(100), 50) * 0.005, atol=1e-6)
     assert "imu_clock_resyncs" in [d.code for d in diags]
 
 
@@ -465,11 +466,14 @@ def test_device_clock_keeps_device_time_and_reanchors_only_on_real_jumps():
     assert clock.to_pipeline(100.005, 5.013) == (pytest.approx(5.005), False)  # jittery frame
     # a 3 s link stall then a backlog: device time continues, no re-anchor
     assert clock.to_pipeline(100.010, 8.0) == (pytest.approx(5.010), False)
-    # reboot: device clock restarts near 0
+    # reboot: device clock restarts near 0; its next sample confirms the new clock
     t, resynced = clock.to_pipeline(0.002, 8.5)
-    assert resynced and t == pytest.approx(8.5)
-    assert clock.to_pipeline(0.007, 8.505) == (pytest.approx(8.505), False)
+    assert not resynced and t <= 5.010            # held on the old clock: screened out
+    t, resynced = clock.to_pipeline(0.007, 8.505)
+    assert resynced and t == pytest.approx(8.505)
+    assert clock.to_pipeline(0.012, 8.51) == (pytest.approx(8.51), False)
     # device clock leaps 50 s ahead while frames advance 5 ms
-    t, resynced = clock.to_pipeline(50.0, 8.51)
-    assert resynced and t == pytest.approx(8.51)
-    assert clock.to_pipeline(float("nan"), 8.52)[1] is False
+    assert clock.to_pipeline(50.0, 8.515)[1] is False
+    t, resynced = clock.to_pipeline(50.005, 8.52)
+    assert resynced and t == pytest.approx(8.52)
+    assert clock.to_pipeline(float("nan"), 8.53)[1] is False
