@@ -35,3 +35,10 @@ def vicon_run(shared_data: Path):
     """A running PyShoe VICON trial (stance statistic 100x higher than walking)."""
     from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
     return load_vicon_trial(shared_data / "pyshoe-vicon" / "2017-11-27-11-12-44.mat")
+
+
+@pytest.fixture(scope="session")
+def vicon_crawl(shared_data: Path):
+    """A crawling PyShoe VICON trial (hands and knees: the boot rests upside down)."""
+    from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
+    return load_vicon_trial(shared_data / "pyshoe-vicon" / "2018-02-22-10-09-36.mat")

@@ -69,12 +69,17 @@ def level(f: np.ndarray) -> np.ndarray:
 
 
 # -- detector -------------------------------------------------------------------------
-def statistic(acc: np.ndarray, gyro: np.ndarray, cfg: DetectorConfig) -> np.ndarray:
-    """log10 T of every sample, windows centred and truncated at both ends."""
+def statistic(acc: np.ndarray, gyro: np.ndarray, cfg: DetectorConfig
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """log10 T and ``up`` (z of the mean specific force's direction, 1 unless that mean
+    is gravity) of every sample, windows centred and truncated at both ends."""
     n, h = len(acc), cfg.window // 2
-    out = np.empty(n)
+    out, up = np.empty(n), np.empty(n)
     for k in range(n):
         a, w = acc[max(0, k - h):k + h + 1], gyro[max(0, k - h):k + h + 1]
+        m = a.mean(axis=0)
+        norm = np.linalg.norm(m)
+        up[k] = m[2] / norm if abs(norm - cfg.gravity) < detectors.REST_GRAVITY * cfg.gravity else 1.0
         if cfg.kind == detectors.AMVD:
             tot = np.sum((a - a.mean(axis=0)) ** 2) / cfg.sigma_a ** 2
         elif cfg.kind == detectors.ARED:
@@ -84,32 +89,43 @@ def statistic(acc: np.ndarray, gyro: np.ndarray, cfg: DetectorConfig) -> np.ndar
             u = cfg.gravity * m / np.linalg.norm(m)
             tot = np.sum((a - u) ** 2) / cfg.sigma_a ** 2 + np.sum(w ** 2) / cfg.sigma_g ** 2
         out[k] = math.log10(max(tot / len(a), 1e-300))
-    return out
+    return out, up
 
 
-def decide(s: np.ndarray, cfg: DetectorConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Zero-velocity flags and thresholds (log10) of every sample."""
+def decide(s: np.ndarray, up: np.ndarray, cfg: DetectorConfig
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Zero-velocity flags, thresholds (log10) and gait modes of every sample."""
     n = len(s)
-    thr = np.empty(n)
+    thr, mode = np.empty(n), np.zeros(n)
     for d in range(n):
         if cfg.kind != detectors.ADAPTIVE:
             thr[d] = math.log10(cfg.threshold)
             continue
         hi = min(d + cfg.ahead, n - 1) + 1
         swing = s[max(0, d - cfg.back):hi].max()
-        floor = s[max(0, d - cfg.floor_back):hi].min()
-        low = math.log10(cfg.low)
-        if swing - floor < cfg.prominence:
+        lo = max(0, d - cfg.floor_back)
+        window = s[lo:hi]
+        j = lo + len(window) - 1 - int(np.argmin(window[::-1]))   # the newest minimum
+        floor = s[j]
+        if up[j] < cfg.crawl_up:
+            mode[d] = detectors.MODE_CRAWL
+            low, high = math.log10(cfg.crawl_low), math.log10(cfg.crawl_high)
+            kappa, prominence = cfg.crawl_kappa, cfg.crawl_prominence
+        else:
+            low, high = math.log10(cfg.low), math.log10(cfg.high)
+            kappa, prominence = cfg.kappa, cfg.prominence
+        if swing - floor < prominence:
             thr[d] = low
         else:
-            thr[d] = min(max(floor + cfg.kappa * (swing - floor), low), math.log10(cfg.high))
+            thr[d] = min(max(floor + kappa * (swing - floor), low), high)
     zv = s < thr
-    # drop zero-velocity runs shorter than min_stance
+    # drop the samples of zero-velocity runs shorter than their mode's min_stance
+    need = np.where(mode == detectors.MODE_CRAWL, cfg.crawl_min_stance, cfg.min_stance)
     edges = np.flatnonzero(np.diff(np.concatenate(([0], zv.astype(int), [0]))))
+    keep = zv.copy()
     for start, end in zip(edges[::2], edges[1::2]):
-        if end - start < cfg.min_stance:
-            zv[start:end] = False
-    return zv, thr
+        keep[start:end] = end - start >= need[start:end]
+    return keep, thr, mode
 
 
 # -- filter ---------------------------------------------------------------------------
@@ -249,7 +265,7 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
 def run(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, dcfg: DetectorConfig,
         fcfg: FilterConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Detector then filter over a whole recording: (states, events, log10 statistic)."""
-    s = statistic(acc, gyro, dcfg)
-    zv, _ = decide(s, dcfg)
+    s, up = statistic(acc, gyro, dcfg)
+    zv, _, _ = decide(s, up, dcfg)
     states, events = run_filter(t, acc, gyro, zv, fcfg)
     return states, events, s

@@ -41,7 +41,8 @@ from ...messages import GroundTruth, Message, PoseEstimate
 from ...formats.base import ReaderError, ReadOptions, imu_blocks
 
 __all__ = ["ViconTrial", "IndoorWalk", "load_vicon_trial", "load_indoor_walk",
-           "read_vicon_trial", "read_indoor_walk", "read_mat", "VICON_DETECTORS"]
+           "read_vicon_trial", "read_indoor_walk", "read_mat", "VICON_DETECTORS",
+           "vicon_motion", "VICON_MOTIONS"]
 
 #: Detector names of the ``zv_<det>_opt`` / ``G_<det>_opt`` variables, in the order
 #: that ``trial_error`` most likely follows (consistent with ``best_detector`` and
@@ -137,6 +138,47 @@ class IndoorWalk:
     def stride_times(self) -> np.ndarray:
         """(K,) time [s] of each GCP footprint."""
         return self.ts[self.stride_index]
+
+
+#: Motion classes of the VICON trials (:func:`vicon_motion`).
+VICON_MOTIONS = ("walk", "run", "crawl", "irregular")
+_REST_ACCEL = 0.5        # [m/s^2] |f| within this of 9.81 ...
+_REST_GYRO = 0.5         # [rad/s] ... and |w| below this: a resting foot
+_IRREGULAR_SPEED = 0.25  # [m/s] mean horizontal speed below which ...
+_IRREGULAR_RISE = 0.4    # [m] ... a height range above this is stepping on and off things
+_RUN_PEAK = 40.0         # [m/s^2] median of the 1-s peaks of |f| above which it is running
+_MOVING_GYRO = 3.0       # [rad/s] a 1-s window with a faster rotation is moving
+
+
+def vicon_motion(trial: ViconTrial) -> str:
+    """What the wearer does in a VICON trial: walk, run, crawl or irregular.
+
+    The dataset does not label its trials (its README: "some are crawling, running or
+    irregular motion"); PyShoe's own scripts name four walking and five running trials
+    (``train_motion_classifier.py``), and this rule agrees with all nine:
+
+    * ``crawl``: the resting foot is upside down (the median of the device's down axis
+      over resting samples points up: on hands and knees the boot lies on its toe cap);
+    * ``irregular``: the foot hardly travels (mean horizontal VICON speed under
+      0.25 m/s) but rises more than 0.4 m (stepping onto and off a platform in place);
+    * ``run``: the median over moving 1-s windows of the peak specific force exceeds
+      40 m/s^2 (4 g impacts; walking stays near 2-3.5 g);
+    * ``walk``: everything else.
+    """
+    an = np.linalg.norm(trial.accel, axis=1)
+    gn = np.linalg.norm(trial.gyro, axis=1)
+    rest = (np.abs(an - 9.81) < _REST_ACCEL) & (gn < _REST_GYRO)
+    if rest.any() and np.median(-trial.accel[rest, 2] / an[rest]) < 0.0:
+        return "crawl"
+    duration = float(trial.ts[-1] - trial.ts[0])
+    horizontal = float(np.sum(np.hypot(*np.diff(trial.gt[::10, :2], axis=0).T)))
+    if horizontal < _IRREGULAR_SPEED * duration and np.ptp(trial.gt[:, 2]) > _IRREGULAR_RISE:
+        return "irregular"
+    n = max(1, int(round(1.0 / float(np.median(np.diff(trial.ts))))))
+    k = len(an) // n
+    peaks = an[:k * n].reshape(k, n).max(axis=1)
+    moving = gn[:k * n].reshape(k, n).max(axis=1) > _MOVING_GYRO
+    return "run" if moving.any() and np.median(peaks[moving]) > _RUN_PEAK else "walk"
 
 
 # -- loading -------------------------------------------------------------------------

@@ -20,8 +20,8 @@ class BlockResult:
     """What one call produced.
 
     ``states`` (N, eskf.N_OUT): full-rate filter output of the samples processed in this
-    call (columns ``eskf.O_*``); ``stat`` (N, 2) log10 of the detector statistic and of the
-    threshold it was compared with;
+    call (columns ``eskf.O_*``); ``stat`` (N, 3) log10 of the detector statistic, of the
+    threshold it was compared with, and the detector's gait mode (``detectors.MODE_*``);
     ``events`` (M, eskf.N_EVENT): step/still events (columns ``eskf.E_*``).
     """
 
@@ -31,7 +31,7 @@ class BlockResult:
 
     @staticmethod
     def empty() -> "BlockResult":
-        return BlockResult(np.zeros((0, eskf.N_OUT)), np.zeros((0, 2)), np.zeros((0, eskf.N_EVENT)))
+        return BlockResult(np.zeros((0, eskf.N_OUT)), np.zeros((0, 3)), np.zeros((0, eskf.N_EVENT)))
 
     @staticmethod
     def concat(parts: list["BlockResult"]) -> "BlockResult":
@@ -130,4 +130,4 @@ class InsEngine:
 
 
 def _buffers(n: int) -> tuple[np.ndarray, ...]:
-    return (np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.bool_), np.empty((n, 2)))
+    return (np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.bool_), np.empty((n, 3)))

@@ -38,6 +38,28 @@ def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
     return g0 - 3.086e-6 * height_m
 
 
+class CrawlLevels(Params):
+    """The adaptive detector's levels while the resting foot lies tilted beyond
+    ``gait.crawl_tilt`` (crawling, knee-walking: see ``detectors``)."""
+
+    low: float = param(5.5, unit="log10 T", description="SHOE statistic below which the "
+                       "foot is surely still")
+    high: float = param(6.6, unit="log10 T", description="SHOE statistic above which the "
+                        "foot surely moves")
+    kappa: float = param(0.2, gt=0, lt=1, description="threshold position between stance "
+                         "floor and swing level (log scale)")
+    prominence: float = param(1.0, gt=0, unit="decades", description="swing level above "
+                              "stance floor needed to call it a gait")
+    min_stance: float = param(0.025, unit="s", ge=0, description="zero-velocity runs "
+                              "shorter than this are dropped")
+
+    @model_validator(mode="after")
+    def _levels(self) -> "CrawlLevels":
+        if not self.low <= self.high:
+            raise ValueError(f"low ({self.low:g}) must not be above high ({self.high:g})")
+        return self
+
+
 class Detector(Params):
     """Zero-velocity detector."""
 
@@ -63,6 +85,8 @@ class Detector(Params):
                               "stance floor (shorter than a stride: follows a change of gait)")
     min_stance: float = param(0.04, unit="s", ge=0, description="zero-velocity runs shorter "
                               "than this are dropped (mid-swing dips)")
+    crawl: CrawlLevels = param(CrawlLevels(), description="adaptive: levels while crawling "
+                               "(resting foot tilted beyond gait.crawl_tilt)")
 
     @model_validator(mode="after")
     def _levels(self) -> "Detector":
@@ -241,7 +265,10 @@ class ZuptInsParams(Params):
             gravity=self.gravity.g, threshold=thr, low=10.0 ** d.low, high=10.0 ** d.high,
             kappa=d.kappa, prominence=d.prominence, ahead=samples(d.ahead),
             back=samples(d.swing_back), floor_back=samples(d.floor_back),
-            min_stance=max(1, samples(d.min_stance)))
+            min_stance=max(1, samples(d.min_stance)), crawl_up=math.cos(self.gait.crawl_tilt),
+            crawl_low=10.0 ** d.crawl.low, crawl_high=10.0 ** d.crawl.high,
+            crawl_kappa=d.crawl.kappa, crawl_prominence=d.crawl.prominence,
+            crawl_min_stance=max(1, samples(d.crawl.min_stance)))
 
     def filter_config(self, rate: float) -> eskf.FilterConfig:
         """Filter kernel configuration for an IMU at ``rate`` Hz."""
