@@ -138,6 +138,9 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
     P = np.zeros((n, n))
     aligned, align_acc, align_gyro, align_n = False, np.zeros(3), np.zeros(3), 0
     in_stance, swing_n, stance_t0, t_event, t_still, stance_z = False, 0, 0.0, 0.0, 0.0, 0.0
+    floor_z = None                # height of the current level floor
+    stance_xy = np.zeros(2)       # horizontal position at the last stance onset
+    stairs = 0                    # consecutive stair steps, signed (up +)
     t_prev = None
     out = np.zeros((len(t), eskf.N_OUT))
     events = []
@@ -180,8 +183,19 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
         H[range(len(rows)), rows] = 1.0
         return H
 
+    pending, stance_corr = False, np.zeros(3)   # a step waiting for step_settle
+
+    def step(t_step):
+        nonlocal t_event, t_still, pending
+        event(t_step, eskf.EVENT_STEP, stance_corr)
+        t_event = t_still = t_step
+        clone()
+        pending = False
+
     for k, tk in enumerate(t):
         dt = 0.0 if t_prev is None else min(tk - t_prev, cfg.max_dt)
+        if pending and not zv[k]:
+            step(t_prev)        # the stance ended before settling: its last still sample
         t_prev = tk
         corr = np.zeros(3)
         if not aligned:
@@ -191,6 +205,7 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                 align_n += 1
                 if align_n >= cfg.align_samples:
                     aligned = True
+                    floor_z, stance_xy, stance_z, stairs = None, np.zeros(2), 0.0, 0
                     q = level(align_acc / align_n)
                     if cfg.align_gyro_bias:
                         bg = align_gyro / align_n
@@ -229,14 +244,33 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
             if zv[k]:
                 corr += update(sel([3, 4, 5]), -v, cfg.zupt_sigma ** 2)
                 if not in_stance:
-                    if cfg.height_correction and abs(p[2] - stance_z) < cfg.level_threshold:
-                        corr += update(sel([2]), np.array([stance_z - p[2]]), cfg.level_sigma ** 2)
-                    stance_z, stance_t0 = p[2], tk
-                    event(tk, eskf.EVENT_STEP, corr)
-                    t_event = t_still = tk
-                    clone()
-                    in_stance = True
-                elif tk - t_still >= cfg.still_period:
+                    if cfg.height_correction:
+                        long_step = math.hypot(*(p[:2] - stance_xy)) >= cfg.stair_run
+                        rise = p[2] - stance_z
+                        if not long_step and abs(rise) >= cfg.level_threshold:
+                            way = 1 if rise > 0 else -1
+                            stairs = stairs + way if stairs * way > 0 else way
+                            if abs(stairs) >= 2:
+                                floor_z = None
+                        else:
+                            single, stairs = stairs != 0, 0
+                            if floor_z is None or (not long_step and not single and
+                                                   abs(floor_z - p[2]) >= cfg.level_threshold):
+                                floor_z = p[2]
+                            else:   # height-only update, Joseph form for the gain on z alone
+                                d = floor_z - p[2]
+                                prior = max(P[2, 2], d * d)
+                                gain = prior / (prior + cfg.level_sigma ** 2)
+                                p = p + np.array([0.0, 0.0, gain * d])
+                                corr[2] += gain * d
+                                P[2, 2] = prior
+                                A = np.eye(n)
+                                A[2, 2] = 1.0 - gain
+                                P[:] = A @ P @ A.T
+                                P[2, 2] += gain * gain * cfg.level_sigma ** 2
+                    stance_xy, stance_z, stance_t0 = p[:2].copy(), p[2], tk
+                    stance_corr, pending, in_stance = np.zeros(3), True, True
+                elif not pending and tk - t_still >= cfg.still_period:
                     event(tk, eskf.EVENT_STILL, corr)
                     t_event = t_still = tk
                     clone()
@@ -245,7 +279,11 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                     H = sel([16, 17, 18])
                     S = H @ P @ H.T + cfg.zaru_sigma ** 2 * np.eye(3)
                     if w @ np.linalg.solve(S, w) < cfg.zaru_gate:
-                        update(H, w, cfg.zaru_sigma ** 2)
+                        corr += update(H, w, cfg.zaru_sigma ** 2)
+                if pending:
+                    stance_corr = stance_corr + corr
+                    if tk - stance_t0 >= cfg.step_settle:
+                        step(tk)
             else:
                 if in_stance:
                     in_stance, swing_n = False, 0
@@ -259,6 +297,8 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
         row[eskf.O_YAW] = yaw(q)
         row[eskf.O_COV:eskf.O_COV + 10] = P[np.ix_(cur, cur)][np.triu_indices(4)]
         row[eskf.O_ALIGNED] = float(aligned)
+    if pending:
+        step(t_prev)            # the recording ended in the stance
     return out, np.array(events).reshape(-1, eskf.N_EVENT)
 
 

@@ -66,19 +66,6 @@ class InsEngine:
         return int(self._filt[2][eskf.I_ALIGN_N])
 
     @property
-    def alignment_yaw_rate(self) -> float:
-        """Mean angular rate [rad/s] about the vertical (the mean specific force's
-        direction) over the still samples of the alignment: the gyro bias that turns the
-        heading when it is not calibrated out."""
-        fs = self._filt[3]
-        up = fs[eskf.F_ALIGN_ACC:eskf.F_ALIGN_ACC + 3]
-        norm = float(np.linalg.norm(up))
-        if norm == 0.0:
-            return 0.0
-        return float(fs[eskf.F_ALIGN_GYRO:eskf.F_ALIGN_GYRO + 3] @ up) / norm / max(
-            self.alignment_samples, 1)
-
-    @property
     def gaps(self) -> int:
         """Sample intervals longer than ``max_dt`` (integrated as max_dt)."""
         return int(self._filt[2][eskf.I_GAPS])
@@ -116,10 +103,15 @@ class InsEngine:
         return self._filter(buf, k)
 
     def finish(self) -> BlockResult:
-        """Process the samples still waiting for the detector's look-ahead."""
+        """Process the samples still waiting for the detector's look-ahead, and a step
+        still waiting to settle in its stance."""
         buf = _buffers(detectors.lookahead(self.detector) + 1)
         k = detectors.flush(*self._det, self.detector, *buf)
-        return self._filter(buf, k)
+        res = self._filter(buf, k)
+        last = np.empty((1, eskf.N_EVENT))
+        if eskf.finish_filter(*self._filt, self.filter, last):
+            res.events = np.concatenate((res.events, last))
+        return res
 
     def _filter(self, buf: tuple, k: int) -> BlockResult:
         t, acc, gyro, zv, stat = (b[:k] for b in buf)

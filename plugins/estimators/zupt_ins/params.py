@@ -173,14 +173,21 @@ class Gravity(Params):
 
 
 class Height(Params):
-    """Level-floor height correction (zupt-extension)."""
+    """Level-floor height: a sequence of level stances stays at its floor's height
+    (zupt-extension, a height-only update: see ``eskf._level_floor``)."""
 
-    correction: bool = param(False, description="pull a stance back to the previous stance "
-                             "height when they differ by less than level_threshold")
-    level_threshold: float = param(0.08, unit="m", gt=0, description="height change per step "
-                                   "still counted as level floor")
-    level_sigma: float = param(0.01, unit="m", gt=0, description="noise of the level-floor "
+    correction: bool = param(True, description="hold the height of level stance sequences "
+                             "at their floor's (vertical only: the horizontal track is the "
+                             "same either way)")
+    level_threshold: float = param(0.12, unit="m", gt=0, description="height change from "
+                                   "the previous stance (and from the floor) still counted "
+                                   "as level floor; stairs rise more")
+    level_sigma: float = param(0.005, unit="m", gt=0, description="noise of the level-floor "
                                "height measurement")
+    stair_run: float = param(1.2, unit="m", gt=0, description="a step at least this long "
+                             "horizontally is on a floor whatever its height change (one "
+                             "foot's stride on stairs spans two treads, four when taking "
+                             "them two at a time)")
 
 
 class Gait(Params):
@@ -216,6 +223,10 @@ class Outputs(Params):
 
     still_period: float = param(1.0, unit="s", gt=0, description="odometry period while "
                                 "standing still")
+    step_settle: float = param(0.1, unit="s", ge=0, description="a step is published this "
+                               "long into its stance (or at its end, if shorter), when the "
+                               "zero-velocity updates have settled its position; the "
+                               "full-rate state holds the stance there")
     state_rate: float = param(0.0, unit="Hz", ge=0, description="full-rate state output on "
                               "port 'state' at this rate (0: off)")
     retrospective_correction: bool = param(True, description="state output: spread each "
@@ -286,4 +297,6 @@ class ZuptInsParams(Params):
             align_min_samples=max(1, int(round(min(a.duration, a.min_duration) * rate))),
             align_gyro_bias=a.gyro_bias, height_correction=self.height.correction,
             level_threshold=self.height.level_threshold, level_sigma=self.height.level_sigma,
-            still_period=self.outputs.still_period, max_dt=f.max_gap)
+            stair_run=self.height.stair_run,
+            still_period=self.outputs.still_period, step_settle=self.outputs.step_settle,
+            max_dt=f.max_gap)
