@@ -183,7 +183,8 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
         H[range(len(rows)), rows] = 1.0
         return H
 
-    pending, stance_corr = False, np.zeros(3)   # a step waiting for step_settle
+    pending, stance_corr = False, np.zeros(3)   # a step waiting for step_settle, and the
+                                                # position correction at its onset
 
     def step(t_step):
         nonlocal t_event, t_still, pending
@@ -269,7 +270,7 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                                 P[:] = A @ P @ A.T
                                 P[2, 2] += gain * gain * cfg.level_sigma ** 2
                     stance_xy, stance_z, stance_t0 = p[:2].copy(), p[2], tk
-                    stance_corr, pending, in_stance = np.zeros(3), True, True
+                    stance_corr, pending, in_stance = corr.copy(), True, True
                 elif not pending and tk - t_still >= cfg.still_period:
                     event(tk, eskf.EVENT_STILL, corr)
                     t_event = t_still = tk
@@ -280,10 +281,8 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                     S = H @ P @ H.T + cfg.zaru_sigma ** 2 * np.eye(3)
                     if w @ np.linalg.solve(S, w) < cfg.zaru_gate:
                         corr += update(H, w, cfg.zaru_sigma ** 2)
-                if pending:
-                    stance_corr = stance_corr + corr
-                    if tk - stance_t0 >= cfg.step_settle:
-                        step(tk)
+                if pending and tk - stance_t0 >= cfg.step_settle:
+                    step(tk)
             else:
                 if in_stance:
                     in_stance, swing_n = False, 0

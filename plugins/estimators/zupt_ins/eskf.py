@@ -50,7 +50,7 @@ F_CORR = 12                                 # 3: position correction of the curr
 F_STANCE_T0 = 15                            # time the current stance began
 F_QUIET = 16                                # 8: running mean and mean square of |f|, gyro xyz
 F_FLOOR_Z = 24                              # height of the current level floor (I_FLOOR set)
-F_STANCE_CORR = 25                          # 3: corrections since the stance began
+F_ONSET_CORR = 25                           # 3: position correction at the stance onset
 N_FSTATE = 28
 
 #: The still start for a gyro-bias alignment is judged by how little the signals vary,
@@ -334,7 +334,7 @@ def _emit_step(events: np.ndarray, n_ev: int, x: np.ndarray, P: np.ndarray, n: i
                ist: np.ndarray, fs: np.ndarray, t: float) -> int:
     """Write the pending step event at ``t`` (a still sample of its stance) and restart
     the step clone there; returns the new event count."""
-    _write_event(events[n_ev], x, P, fs, t, EVENT_STEP, ist[I_SWING_N], F_STANCE_CORR)
+    _write_event(events[n_ev], x, P, fs, t, EVENT_STEP, ist[I_SWING_N], F_ONSET_CORR)
     fs[F_T_EVENT] = t
     fs[F_T_STILL] = t
     _clone(P, n)
@@ -494,7 +494,7 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                 fs[F_STANCE_Y] = x[1]
                 fs[F_STANCE_Z] = x[2]
                 fs[F_STANCE_T0] = tk
-                fs[F_STANCE_CORR:F_STANCE_CORR + 3] = 0.0
+                fs[F_ONSET_CORR:F_ONSET_CORR + 3] = fs[F_CORR:F_CORR + 3]
                 ist[I_PENDING] = 1
                 ist[I_IN_STANCE] = 1
                 ist[I_STANCE_N] = 0
@@ -513,11 +513,8 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                     _update(x, P, n, bgrows, wres, var, fs[F_CORR:F_CORR + 3])
                 else:
                     ist[I_ZARU_REJECTED] += 1
-            if ist[I_PENDING] == 1:
-                for i in range(3):
-                    fs[F_STANCE_CORR + i] += fs[F_CORR + i]
-                if tk - fs[F_STANCE_T0] >= cfg.step_settle:
-                    n_ev = _emit_step(events, n_ev, x, P, n, ist, fs, tk)
+            if ist[I_PENDING] == 1 and tk - fs[F_STANCE_T0] >= cfg.step_settle:
+                n_ev = _emit_step(events, n_ev, x, P, n, ist, fs, tk)
             ist[I_STANCE_N] += 1
         else:
             if ist[I_IN_STANCE] == 1:

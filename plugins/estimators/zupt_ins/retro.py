@@ -8,16 +8,14 @@ of the ramp, i.e. quadratically over the swing: ``c_i = S_i / S_{N+1}`` with
 ``S_i = i (i + 1) / 2`` for the N swing samples i = 1..N (sample N+1 is the stance
 onset itself).
 
-In the error-state Kalman filter the zero-velocity updates of a stance already correct
-its position, through the position-velocity cross-covariance built up during the swing
-(for a velocity error growing linearly this is the same -dv*T/2 as the paper's ramp).
-The step event is written ``step_settle`` into the stance (or at its end), when those
-updates have settled, with the position correction they made since the stance began
-(``E_CORR``). What the filter does not revise is the swing samples before the stance:
-this module spreads that correction back over them with the paper's ramp, and holds the
-stance's first samples (onset to event) at the step's position, so that the full-rate
-track passes through every step pose exactly. It changes the full-rate track, not the
-step increments.
+In the error-state Kalman filter the first ZUPT of a stance already corrects the
+onset position, through the position-velocity cross-covariance built up during the
+swing (for a velocity error growing linearly this is the same -dv*T/2 as the paper's
+ramp). What the filter does not revise is the swing samples in between: this module
+spreads the onset's position correction (the filter's own, ``E_CORR`` of the step
+event, which is written ``step_settle`` later in the stance) back over them with the
+paper's ramp. It changes the full-rate track before each stance, not the stances: the
+track at a step's time is the step's pose.
 """
 from __future__ import annotations
 
@@ -33,8 +31,7 @@ def ramp_weights(n: int) -> np.ndarray:
 
 
 def correct_positions(t: np.ndarray, pos: np.ndarray, events: np.ndarray) -> np.ndarray:
-    """Positions (N, 3) with each step's correction spread over its swing and its stance
-    held at the step's position up to the event.
+    """Positions (N, 3) with each step's onset correction spread over its swing.
 
     ``t`` (N,) and ``pos`` (N, 3) are full-rate filter output; ``events`` rows use the
     ``eskf.E_*`` columns. Steps whose stance onset is not in ``t`` are skipped, and
@@ -44,13 +41,9 @@ def correct_positions(t: np.ndarray, pos: np.ndarray, events: np.ndarray) -> np.
     for ev in events:
         if int(ev[eskf.E_KIND]) != eskf.EVENT_STEP:
             continue
-        k = int(np.searchsorted(t, ev[eskf.E_STANCE_T0]))
-        if k >= len(t) or t[k] != ev[eskf.E_STANCE_T0]:
-            continue
-        e = int(np.searchsorted(t, ev[eskf.E_T], side="right"))
-        out[k:e] = ev[eskf.E_POS:eskf.E_POS + 3]
         n = int(ev[eskf.E_SWING_N])
-        if n <= 0:
+        k = int(np.searchsorted(t, ev[eskf.E_STANCE_T0]))
+        if n <= 0 or k >= len(t) or t[k] != ev[eskf.E_STANCE_T0]:
             continue
         w = ramp_weights(n)
         first = k - n
