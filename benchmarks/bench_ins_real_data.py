@@ -2,6 +2,8 @@
 
     .venv/bin/python benchmarks/bench_ins_real_data.py            # tables + summary
     .venv/bin/python benchmarks/bench_ins_real_data.py --tune     # redo the detector tuning
+    .venv/bin/python benchmarks/bench_ins_real_data.py --xio DIR --zupt-fgo DIR/measData
+                                                   # public recordings, where you have them
 
 PyShoe VICON set (56 trials): the 2D ARMSE exactly as PyShoe defines it (rotation
 alignment at the first sample 0.8 m from the start; per-sample RMS over x and y, see
@@ -43,7 +45,7 @@ from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import eskf  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.metrics import (  # noqa: E402
-    path_length, pyshoe_armse, shape_error_per_distance, stride_errors)
+    path_length, pyshoe_armse, rigid_fit_2d, shape_error_per_distance, stride_errors)
 from firenav_plugins.estimators.zupt_ins.retro import correct_positions  # noqa: E402
 
 FLU = np.array([1.0, -1.0, -1.0])     # the datasets' z-down MicroStrain -> FLU
@@ -309,10 +311,116 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     print(f"({time.perf_counter() - t0:.0f} s)")
 
 
+# -- public recordings (not on this machine: give their folders) ---------------------------
+def recording_arrays(path: Path) -> tuple[dict[str, tuple], list]:
+    """IMU arrays per device (t, accel, gyro; repeated samples dropped, as the sensor
+    does) and the truth messages of a recording, read by the recording source's readers."""
+    from firenav_framework.formats.base import ReadOptions
+    from firenav_framework.sources.readers import find_reader
+
+    imu: dict[str, list] = {}
+    truth = []
+    for port, msg in find_reader(path)(path, ReadOptions()):
+        if port == "imu":
+            imu.setdefault(msg.device, []).append(msg)
+        elif port == "truth":
+            truth.append(msg)
+    out = {}
+    for device, blocks in imu.items():
+        t = np.concatenate([b.time for b in blocks])
+        keep = np.concatenate(([True], np.diff(t) > 0))
+        out[device] = (t[keep], np.concatenate([b.accel for b in blocks])[keep],
+                       np.concatenate([b.gyro for b in blocks])[keep])
+    return out, truth
+
+
+def run_flu(params: ZuptInsParams, t: np.ndarray, accel: np.ndarray, gyro: np.ndarray
+            ) -> np.ndarray:
+    """Full-rate positions of the INS on samples already in FLU (z-up devices)."""
+    rate = 1.0 / float(np.median(np.diff(t)))
+    eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
+    res = BlockResult.concat([eng.process(t, accel, gyro), eng.finish()])
+    pos = correct_positions(res.states[:, eskf.O_T], res.states[:, eskf.O_POS:eskf.O_POS + 3],
+                            res.events)
+    return pos[res.states[:, eskf.O_ALIGNED] > 0]
+
+
+#: x-io Gait-Tracking README: "the final displacement of the foot is 82 mm for a ~25 m
+#: walk (short_walk.csv), and 421 mm for a ~60 m walk (long_walk.csv)" (their script, 3D).
+XIO_PUBLISHED = {"short_walk.csv": 0.082, "long_walk.csv": 0.421}
+
+
+def report_xio(folder: Path) -> None:
+    """Closure of the two Gait-Tracking loops (they end where they start)."""
+    print(f"\nx-io Gait-Tracking loops ({folder}): distance between the first and last "
+          "position [m], horizontal / 3D; their script's published 3D figure beside")
+    for name, published in XIO_PUBLISHED.items():
+        path = folder / name
+        if not path.is_file():
+            print(f"  {name}: not found")
+            continue
+        (t, accel, gyro), = recording_arrays(path)[0].values()
+        row = []
+        for key, params in (("ours", ZuptInsParams()), ("before", BEFORE)):
+            pos = run_flu(params, t, accel, gyro)
+            d = pos[-1] - pos[0]
+            row.append(f"{key} {np.hypot(d[0], d[1]):.3f} / {np.linalg.norm(d):.3f}")
+        print(f"  {name:15s} {', '.join(row)}; x-io {published:.3f}")
+
+
+#: Constrained-ZUPT-FGO results/statistics_report_hor.csv: mean horizontal error [m]
+#: (right foot, left foot) of their EKF-ZUPT and FGO-ZUPT without position measurements.
+ZUPT_FGO_PUBLISHED = {"EKF-ZUPT": (1.310, 3.338), "FGO-ZUPT": (0.446, 1.788)}
+
+
+def report_zupt_fgo(folder: Path) -> None:
+    """Both feet of Constrained-ZUPT-FGO's measData against positionGt.csv: the mean
+    horizontal error over every 60 Hz epoch after a 2D rigid fit on the first 5 steps'
+    worth of track (3 s after the start of navigation), beside their published figures."""
+    print(f"\nConstrained-ZUPT-FGO measData ({folder}): mean horizontal error [m] at every "
+          "epoch, rigid fit on the first 3 s of motion")
+    mine = {}
+    for foot in ("Right", "Left"):
+        path = folder / f"imuMeas{foot}.csv"
+        if not path.is_file():
+            print(f"  {path.name}: not found")
+            return
+        arrays, truth = recording_arrays(path)
+        (t, accel, gyro), = arrays.values()
+        tt = np.array([m.t for m in truth])
+        gt = np.array([m.position[:2] for m in truth])
+        for key, params in (("ours", ZuptInsParams()), ("before", BEFORE)):
+            rate = 1.0 / float(np.median(np.diff(t)))
+            eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
+            res = BlockResult.concat([eng.process(t, accel, gyro), eng.finish()])
+            pos = correct_positions(res.states[:, eskf.O_T],
+                                    res.states[:, eskf.O_POS:eskf.O_POS + 3], res.events)
+            ok = res.states[:, eskf.O_ALIGNED] > 0
+            te, pe = res.states[ok, eskf.O_T], pos[ok, :2]
+            g = np.column_stack([np.interp(te, tt, gt[:, i]) for i in (0, 1)])
+            moving = np.flatnonzero(np.hypot(*(g - g[0]).T) > 0.3)
+            fit = slice(0, moving[0] + int(3 * rate)) if len(moving) else slice(None)
+            R, tr = rigid_fit_2d(pe[fit], g[fit])
+            mine[(foot, key)] = float(np.mean(np.hypot(*(pe @ R.T + tr - g).T)))
+    for key in ("ours", "before"):
+        print(f"  {key:10s} right {mine[('Right', key)]:.3f}, left {mine[('Left', key)]:.3f}")
+    for name, (right, left) in ZUPT_FGO_PUBLISHED.items():
+        print(f"  {name:10s} right {right:.3f}, left {left:.3f} (published, their own alignment)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tune", action="store_true", help="redo the detector tuning (minutes)")
+    ap.add_argument("--xio", type=Path, help="folder of x-io Gait-Tracking's short_walk.csv "
+                    "and long_walk.csv (the project's repository)")
+    ap.add_argument("--zupt-fgo", type=Path, help="Constrained-ZUPT-FGO's measData folder")
     args = ap.parse_args()
+    if args.xio or args.zupt_fgo:
+        if args.xio:
+            report_xio(args.xio)
+        if args.zupt_fgo:
+            report_zupt_fgo(args.zupt_fgo)
+        return
     root = data_dir()
     if not root.is_dir():
         sys.exit(f"datasets not found at {root} (set FIRENAV_SHARED_DATA)")

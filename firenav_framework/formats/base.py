@@ -7,10 +7,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..messages import ImuBlock
+
+if TYPE_CHECKING:
+    from .csv_layout import CsvColumns
 
 
 class ReaderError(ValueError):
@@ -32,13 +36,15 @@ class ReadOptions:
     ``"<agent>/imu"`` unless given); ``block_s`` is the length [s] of the
     :class:`ImuBlock` pieces an IMU recording is cut into; ``count(what, n)`` records
     rows or records the reader skipped (the recording source passes ``ctx.count``,
-    so they appear in the run summary).
+    so they appear in the run summary); ``columns`` is the column and unit mapping of
+    a text recording (a :class:`~.csv_layout.CsvColumns`, None: from the file).
     """
 
     agent: str = "ff1"
     device: str = ""
     block_s: float = 0.1
     count: Callable[[str, int], None] = field(default=_no_count, compare=False)
+    columns: CsvColumns | None = None
 
     def __post_init__(self) -> None:
         if not self.device:
