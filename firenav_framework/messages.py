@@ -29,8 +29,8 @@ import numpy as np
 
 __all__ = [
     "Message", "RawFrame", "ImuBlock", "Range", "RssiReading", "TagDetection",
-    "TagDeployment", "BreadcrumbDrop", "Odometry", "PoseEstimate", "Diagnostic",
-    "GroundTruth", "Tick", "MESSAGE_TYPES", "POSE_COV_AXES", "IMU_FLAG_BITS",
+    "TagDeployment", "BreadcrumbDrop", "Odometry", "PoseEstimate", "PressureHeight",
+    "Diagnostic", "GroundTruth", "Tick", "MESSAGE_TYPES", "POSE_COV_AXES", "IMU_FLAG_BITS",
 ]
 
 #: Order of the axes in the 4x4 covariance carried by Odometry and PoseEstimate.
@@ -294,6 +294,35 @@ class PoseEstimate(Message):
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class PressureHeight(Message):
+    """The height of ``agent``'s barometer from static pressure, in the building's z.
+
+    ``height`` [m] is a z of the building frame (the ``position[2]`` of a building-frame
+    :class:`PoseEstimate`, the levels of ``Floor.z``): the height above the level where
+    the barometer was zeroed (``zero_level``, the entrance floor's z) plus that level.
+    ``sigma`` [m] is its 1-sigma uncertainty: reading noise, the zeroing, the reference's
+    noise and its drift since it was last heard, and the pressure difference between
+    inside and the reference that the zeroing cannot remove (fire, doors, ventilation).
+    ``pressure`` [Pa] is the firefighter's static pressure (mean over the report's
+    interval, ``t - interval`` to ``t``); ``reference_pressure`` [Pa] the pressure at
+    the zeroing level it was compared with (the reference barometer at the entrance or
+    base station, corrected by the zeroing offset; without a reference, the pressure
+    at zeroing), ``reference_age`` [s] how old that reference is (0: heard within the
+    interval). Heights are only published once the barometer is zeroed.
+    """
+
+    height: float
+    sigma: float
+    pressure: float
+    reference_pressure: float
+    reference_age: float = 0.0
+    interval: float = 0.0
+    zero_level: float = 0.0
+    kind: ClassVar[str] = "pressure_height"
+    periodic: ClassVar[bool] = True
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class Diagnostic(Message):
     """Something a component wants the operator to know.
 
@@ -338,5 +367,5 @@ class Tick(Message):
 MESSAGE_TYPES: dict[str, type[Message]] = {
     cls.kind: cls for cls in (RawFrame, ImuBlock, Range, RssiReading, TagDetection,
                               TagDeployment, BreadcrumbDrop, Odometry, PoseEstimate,
-                              Diagnostic, GroundTruth, Tick)
+                              PressureHeight, Diagnostic, GroundTruth, Tick)
 }

@@ -27,6 +27,7 @@ from .contract.context import PIPELINE_DIR, NoBuilding
 from .messages import Diagnostic, Message
 from .pipeline import PipelineSpec
 from .stats import RunStats
+from .timefmt import clock_text
 from .timeline import Timeline
 from .tracks import Track, TrackStore
 
@@ -87,7 +88,7 @@ class _Progress:
         if now < self.next:
             return
         self.next = now + self.every
-        line = f"[firenav] t={t:.1f} s"
+        line = f"[firenav] {clock_text(t)}"  # a live link's clock as the local time
         if self.span and self.span[1] > self.span[0]:
             frac = min(1.0, max(0.0, (t - self.span[0]) / (self.span[1] - self.span[0])))
             line += f" of {self.span[1] - self.span[0]:.0f} s ({100 * frac:.0f}%)"

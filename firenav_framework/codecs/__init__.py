@@ -34,6 +34,7 @@ BUILTIN_CODECS: dict[str, str] = {
     "uwb_lines": "firenav_framework.codecs.uwb_lines:UwbLinesCodec",
     "uwb_can": "firenav_framework.codecs.uwb_can:UwbCanCodec",
     "rfid_lines": "firenav_framework.codecs.rfid_lines:RfidLinesCodec",
+    "baro_lines": "firenav_framework.codecs.baro_lines:BaroLinesCodec",
 }
 
 
