@@ -10,6 +10,7 @@ from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsP
 
 #: device (z-down) -> FLU axes of the real datasets' MicroStrain
 FLU = np.array([1.0, -1.0, -1.0])
+REPO = Path(__file__).resolve().parents[2]
 
 
 def run_engine(t, acc, gyro, params: ZuptInsParams | None = None, rate: float = 200.0,
@@ -42,3 +43,10 @@ def vicon_crawl(shared_data: Path):
     """A crawling PyShoe VICON trial (hands and knees: the boot rests upside down)."""
     from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
     return load_vicon_trial(shared_data / "pyshoe-vicon" / "2018-02-22-10-09-36.mat")
+
+
+@pytest.fixture(scope="session")
+def vicon_crawl_tuning(shared_data: Path):
+    """A crawling VICON trial of the tuning half (even index in name order)."""
+    from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
+    return load_vicon_trial(shared_data / "pyshoe-vicon" / "2018-02-22-10-10-29.mat")
