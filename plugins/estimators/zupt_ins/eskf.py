@@ -17,6 +17,12 @@ Transition (orca-map-matching eq. 1-2, with bias columns): ``F = I + dt*A`` with
 noise from noise densities, ``Q = sigma^2 * dt`` per axis (isotropic, so independent of
 R). Zero-velocity pseudo-measurement ``0 = v + n``, ``n ~ N(0, sigma_zupt^2 I)``.
 
+Events: a step event ``step_settle`` into each stance (at the stance's last sample when
+it is shorter), when the stance's zero-velocity updates have settled its position, with
+the position correction of the onset (``E_CORR``, for the retrospective correction of
+the swing); a still event every ``still_period`` while the foot rests. At each stance
+onset the level-floor update (:func:`_level_floor`) may pull the height to the floor's.
+
 The filter state lives in arrays that the caller keeps between blocks, so processing a
 recording block by block gives bit-identical results to processing it whole.
 """
