@@ -14,6 +14,16 @@ the figures are the same as serially. A run that fails is retried once; if it fa
 again it is reported with its seed and error, the others are scored, and the exit
 code is 1. A pipeline reading a recording with surveyed checkpoints is evaluated
 once, against the checkpoints (``--align`` says how its frame is fitted, if at all).
+
+A recording with truth, as ``firenav run`` reads it::
+
+    firenav evaluate pipelines/foot-ins.yaml --input ../shared/data/indoor-walks/walk_31.mat
+    firenav evaluate pipelines/foot-ins.yaml --input imuMeasLeft.csv --truth positionGt.csv
+
+``--input`` points the pipeline's file source at the recording; its own truth is the
+reference unless ``--truth FILE`` names another recording to take it from; the
+estimate's frame (an INS's own) is fitted on the first 5 m of the truth's path unless
+``--align`` says otherwise (dense truth is then taken point by point, as checkpoints).
 """
 from __future__ import annotations
 
@@ -25,10 +35,19 @@ from . import UsageError
 from ._executor import add_executor_arguments, open_executor
 
 
+#: How a recorded run's estimate is fitted to its truth unless --align says otherwise: a
+#: rotation and translation on the first 5 m (an INS knows neither at the start).
+RECORDING_ALIGN = "first:5m"
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("evaluate", help="measure a pipeline against ground truth over seeds, "
                        "beside a baseline")
     p.add_argument("pipeline", help="pipeline YAML to evaluate")
+    p.add_argument("--input", metavar="PATH", help="recorded file for the pipeline's file "
+                   "source (as `firenav run --input`); its truth (or --truth FILE) is the "
+                   "reference, and the estimate's frame is fitted on the first 5 m unless "
+                   "--align says otherwise")
     p.add_argument("--scenario", help="scenario for the pipeline's simulator source (file or "
                    "bundled name, see `firenav simulate --list`; default: the pipeline's own)")
     p.add_argument("--seeds", default="1", metavar="N|A-B|A,B,...|NAME",
@@ -43,13 +62,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="override a value of the evaluated pipeline (repeatable)")
     p.add_argument("--baseline-set", dest="baseline_overrides", action="append", default=[],
                    metavar="KEY=VALUE", help="override a value of the baseline pipeline")
-    p.add_argument("--truth", dest="truth_mode", default="auto",
-                   choices=["auto", "dense", "sparse", "checkpoints"],
+    p.add_argument("--truth", dest="truth_mode", default="auto", metavar="MODE|FILE",
                    help="dense truth, sparse truth (checkpoints in the truth stream), the "
-                   "scenario's marked checkpoints, or auto (default)")
-    p.add_argument("--align", default="none", metavar="none|first:K|all",
-                   help="checkpoint evaluation: fit the estimate's frame on the first K "
-                   "checkpoints (honest) or all (optimistic); default none")
+                   "scenario's marked checkpoints, auto (default), or a FILE: a recording "
+                   "whose truth is the reference (e.g. a dataset file)")
+    p.add_argument("--align", default=None, metavar="none|first:K|first:Dm|all",
+                   help="fit the estimate's frame on the first K truth points or the first "
+                   "D metres (honest) or on all (optimistic); default none (first:5m with "
+                   "--input)")
     p.add_argument("--converge-bound", type=float, default=None, metavar="M",
                    help="error bound [m] of the convergence time (default 2)")
     p.add_argument("--json", type=Path, metavar="FILE", help="write the figures as JSON")
@@ -84,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     from ..evaluation import EvaluationError, write_json
     from ..evaluation.metrics import CONVERGE_BOUND_M
     from ..evaluation.report import write_report
-    from ..evaluation.runs import plan_evaluation, run_plans
+    from ..evaluation.runs import TRUTH_MODES, plan_evaluation, run_plans
     from ..evaluation.seeds import describe_seeds
     from ..scaleout.progress import BarProgress, Progress
     seeds = parse_seeds(args.seeds)
@@ -94,14 +114,27 @@ def run(args: argparse.Namespace) -> int:
     for p in [args.pipeline] + ([args.baseline] if args.baseline else []):
         if not Path(p).is_file():
             raise UsageError(f"pipeline '{p}' not found")
-    common = dict(scenario=args.scenario, seeds=seeds, truth_mode=args.truth_mode,
-                  align=args.align, bound_m=bound)
+    truth_mode, truth_file = args.truth_mode, None
+    if truth_mode not in TRUTH_MODES:
+        if not Path(truth_mode).is_file():
+            raise UsageError(f"--truth {truth_mode}: neither a truth mode "
+                             f"({', '.join(TRUTH_MODES)}) nor a file")
+        truth_mode, truth_file = "auto", truth_mode
+    align = args.align or (RECORDING_ALIGN if args.input else "none")
+    overrides, baseline_overrides = list(args.overrides), list(args.baseline_overrides)
+    if args.input:
+        from .run import input_override
+        overrides.insert(0, input_override(args.pipeline, args.input))
+        if args.baseline:
+            baseline_overrides.insert(0, input_override(args.baseline, args.input))
+    common = dict(scenario=args.scenario, seeds=seeds, truth_mode=truth_mode,
+                  align=align, bound_m=bound, truth_file=truth_file)
     try:
-        plans = [plan_evaluation(args.pipeline, stream=args.stream, overrides=args.overrides,
+        plans = [plan_evaluation(args.pipeline, stream=args.stream, overrides=overrides,
                                  output_dir=args.keep_runs, **common)]
         if args.baseline:
             plans.append(plan_evaluation(
-                args.baseline, stream=args.baseline_stream, overrides=args.baseline_overrides,
+                args.baseline, stream=args.baseline_stream, overrides=baseline_overrides,
                 output_dir=args.keep_runs and args.keep_runs / "baseline", **common))
     except EvaluationError as exc:
         raise UsageError(str(exc)) from None
@@ -117,9 +150,10 @@ def run(args: argparse.Namespace) -> int:
     ev = evs[0]
     if args.baseline:
         ev.baseline = evs[1]
-    print(f"{Path(args.pipeline).name} on {ev.scenario or 'recorded data'}, "
+    print(f"{Path(args.pipeline).name} on {ev.scenario or args.input or 'recorded data'}, "
           f"{len(ev.runs)} run(s), seeds {describe_seeds(ev.seeds)}, stream {ev.stream}, "
-          f"truth {ev.truth_mode}")
+          f"truth {ev.truth_mode}{f' from {truth_file}' if truth_file else ''}, aligned "
+          f"{align}")
     print(format_table(ev))
     failed = [(name, f) for name, e in (("", ev), ("baseline ", ev.baseline)) if e is not None
               for f in e.failed]

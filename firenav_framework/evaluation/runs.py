@@ -63,6 +63,7 @@ class RunSpec:
     bound_m: float
     sim_id: str | None
     output_dir: str | None = None
+    truth_file: str | None = None   # truth read from this recording instead of the run's
 
 
 @dataclass
@@ -190,10 +191,11 @@ class EvaluationPlan:
 def plan_evaluation(pipeline: str | Path, *, scenario: str | None = None,
                     seeds: int | list[int] = 1, stream: str | None = None,
                     overrides: list[str] = (), truth_mode: str = "auto", align: str = "none",
-                    bound_m: float = CONVERGE_BOUND_M, output_dir: Path | None = None
-                    ) -> EvaluationPlan:
+                    bound_m: float = CONVERGE_BOUND_M, output_dir: Path | None = None,
+                    truth_file: str | Path | None = None) -> EvaluationPlan:
     """One :class:`RunSpec` per seed; the first is validated here (a bad scenario, stream
-    or override fails before anything runs)."""
+    or override fails before anything runs). ``truth_file``: a recording whose ``truth``
+    port replaces the run's truth."""
     if truth_mode not in TRUTH_MODES:
         raise EvaluationError(f"truth mode '{truth_mode}' must be one of {', '.join(TRUTH_MODES)}")
     parse_align(align)
@@ -211,6 +213,12 @@ def plan_evaluation(pipeline: str | Path, *, scenario: str | None = None,
         seed_list = [None]
     if not seed_list:
         raise EvaluationError("no seeds to run")
+    truth = None
+    if truth_file is not None:
+        truth = str(Path(truth_file).expanduser().resolve())
+        if not load_truth_file(truth):
+            raise EvaluationError(f"truth file {truth_file}: it has no ground truth "
+                                  "(the recording readers give it no 'truth' messages)")
     stream = stream or default_stream(base_spec)
     if stream not in base_spec.streams():
         raise EvaluationError(f"stream '{stream}' is produced by nobody in {pipeline}; "
@@ -226,7 +234,7 @@ def plan_evaluation(pipeline: str | Path, *, scenario: str | None = None,
         if output_dir is not None:
             out = str((Path(output_dir) / f"{base_spec.name}-seed{seed}").resolve())
         runs.append(RunSpec(path, tuple(over), seed, stream, truth_mode, align, bound_m,
-                            sim_id, out))
+                            sim_id, out, truth))
     load_pipeline(path, list(runs[0].overrides))   # the scenario exists, the seed is valid
     scen = scenario
     if scen is None and sim_id is not None:
@@ -244,10 +252,28 @@ def run_one(run: RunSpec) -> RunEvaluation:
         out = Path(run.output_dir) if run.output_dir else Path(tmp)
         out.mkdir(parents=True, exist_ok=True)
         result = run_pipeline(spec, output_dir=out)
+    if run.truth_file is not None:
+        result.truth = load_truth_file(run.truth_file)
     measured = _measure(result, run.seed, run.stream, run.truth_mode, run.align, run.bound_m,
                         run.sim_id, time.monotonic() - t0)
     measured.cpu_s = time.process_time() - c0
     return measured
+
+
+def load_truth_file(path: str | Path) -> dict[str, Track]:
+    """The ground truth of a recording, per agent: its reader's ``truth`` messages (the
+    dataset files, Constrained-ZUPT-FGO's measData, a simulator recording ...)."""
+    from ..formats.base import ReadOptions
+    from ..sources.readers import ReaderError, find_reader
+    from ..tracks import TrackStore
+    store = TrackStore()
+    try:
+        for port, msg in find_reader(path)(Path(path), ReadOptions()):
+            if port == "truth":
+                store("truth", msg)
+    except (ReaderError, OSError) as exc:
+        raise EvaluationError(f"truth file {path}: {exc}") from None
+    return store.truth()
 
 
 def assemble(plan: EvaluationPlan, runs: list[RunEvaluation],
@@ -340,11 +366,10 @@ def _measure(result, seed, stream: str, truth_mode: str, align: str, bound_m: fl
         if mode == "auto":
             mode = "sparse" if is_sparse(tt) else "dense"
         mode_used = mode
+        if mode == "dense" and align != "none":
+            mode = mode_used = "sparse"     # an aligned dense truth: its samples as checkpoints
         if mode == "dense":
             errors[agent] = track_errors(tr, tt, levels)
-            if align != "none":
-                raise EvaluationError("--align applies to checkpoint evaluation (sparse or "
-                                      "checkpoints truth modes)")
         elif mode == "sparse":
             errors[agent], n_out = checkpoint_errors(tr, Checkpoints.from_track(tt), align=align)
             outside += n_out

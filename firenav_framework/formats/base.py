@@ -7,10 +7,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..messages import ImuBlock
+
+if TYPE_CHECKING:
+    from .csv_layout import CsvColumns
 
 
 class ReaderError(ValueError):
@@ -38,7 +42,8 @@ class ReadOptions:
     rows or records the reader skipped (the recording source passes ``ctx.count``,
     so they appear in the run summary); ``warn(code, text)`` reports what the user
     must hear about once (an empty log, a damaged region, a file of one device that
-    cannot be read), with the file in the text.
+    cannot be read), with the file in the text; ``columns`` is the column and unit
+    mapping of a text recording (a :class:`~.csv_layout.CsvColumns`, None: from the file).
     """
 
     agent: str = "ff1"
@@ -46,6 +51,7 @@ class ReadOptions:
     block_s: float = 0.1
     count: Callable[[str, int], None] = field(default=_no_count, compare=False)
     warn: Callable[[str, str], None] = field(default=_no_warn, compare=False)
+    columns: CsvColumns | None = None
 
     def __post_init__(self) -> None:
         if not self.device:

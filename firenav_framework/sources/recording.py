@@ -17,6 +17,7 @@ from pathlib import Path
 from pydantic import field_validator
 
 from ..contract import Params, Source, param
+from ..formats.csv_layout import CsvColumns
 from ..messages import Message
 from .readers import PORTS, ReaderError, ReadOptions, find_reader, reader_table
 
@@ -34,9 +35,10 @@ class RecordingSource(Source):
     class Params(Params):
         path: str | None = param(None, description="recorded file, relative to the pipeline "
                                  "file; `firenav run --input FILE` sets it")
-        format: str = param("auto", description="'auto' (by suffix; .mat by its variables) "
-                            "or a format name / suffix, e.g. imu_csv, pyshoe_vicon, "
-                            "indoor_walk, csv, mat")
+        format: str = param("auto", description="'auto' (by suffix; .mat by its variables, "
+                            ".csv/.txt by their header) or a format name / suffix, e.g. "
+                            "imu_csv, csv_columns, xio_gait_tracking, zupt_fgo, gaitmap, "
+                            "openshoe, pyshoe_vicon, indoor_walk, csv, mat")
         agent: str = param("ff1", min_length=1, description="firefighter the file's data "
                            "belong to, unless the file says")
         device: str | None = param(None, description="device id of the IMU data unless the "
@@ -45,6 +47,10 @@ class RecordingSource(Source):
                                description="length of the ImuBlock pieces IMU data are cut into")
         time_offset: float = param(0.0, unit="s", description="added to every time in the "
                                    "file (to line it up with other sources)")
+        columns: CsvColumns | None = param(None, description="column and unit mapping of a "
+                                           "CSV / text IMU recording (docs/formats/"
+                                           "csv-columns.md); over a public format or a "
+                                           "sidecar file, its keys replace theirs")
 
         @field_validator("format")
         @classmethod
@@ -70,7 +76,8 @@ class RecordingSource(Source):
         self._pending: list[tuple[str, str]] | None = []  # warnings before start()
         self._t = 0.0
         options = ReadOptions(agent=params.agent, device=params.device or "",
-                              block_s=params.block_s, count=ctx.count, warn=self._warn)
+                              block_s=params.block_s, count=ctx.count, warn=self._warn,
+                              columns=params.columns)
         self._reader = find_reader(path, params.format)(path, options)
 
     def _warn(self, code: str, text: str) -> None:

@@ -18,6 +18,7 @@ from firenav_framework.messages import IMU_FLAG_BITS, ImuBlock, RawFrame
 from firenav_framework.testing import check_plugin, make_component
 from firenav_framework.yaml_locations import ConfigError
 from firenav_plugins.sensors.foot_imu import FootImuSensor
+from firenav_plugins.sensors.foot_imu.calibration import axes_matrix
 from firenav_plugins.sensors.foot_imu.clock import DeviceClock
 
 G = 9.81
@@ -477,3 +478,22 @@ def test_device_clock_keeps_device_time_and_reanchors_only_on_real_jumps():
     t, resynced = clock.to_pipeline(50.005, 8.52)
     assert resynced and t == pytest.approx(8.52)
     assert clock.to_pipeline(float("nan"), 8.53)[1] is False
+
+
+@pytest.mark.parametrize("declared, device_up, suggested", [
+    (["x", "-y", "-z"], 2, "[x, y, z]"),       # a z-up device run through foot-ins.yaml
+    (["x", "y", "z"], 0, "[-z, y, x]"),        # gravity on the device's x axis
+])
+def test_the_axes_check_names_the_axes_that_put_gravity_up(declared, device_up, suggested):
+    """At rest the specific force points along the device's up axis; under the declared
+    axes it reads downwards or sideways, and the check names the mapping that fixes it."""
+    t, _, gyro = motion(200)
+    up = np.zeros(3)
+    up[device_up] = 9.81
+    _, diags, _ = run({"axes": declared}, blocks(t, np.tile(up, (len(t), 1)),
+                                                  np.zeros_like(gyro)))
+    (d,) = [d for d in diags if d.code == "imu_axes_check"]
+    assert f"set `axes: {suggested}`" in d.text
+    # the suggested mapping really puts gravity on +z
+    fixed = axes_matrix([a.strip() for a in suggested[1:-1].split(",")]) @ up
+    np.testing.assert_allclose(fixed, [0.0, 0.0, 9.81])

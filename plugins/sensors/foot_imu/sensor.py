@@ -125,7 +125,8 @@ class FootImuSensor(Sensor):
                               accel=LinearCorrection.build(self._R, cal.accel if cal else None),
                               gyro=LinearCorrection.build(self._R, cal.gyro if cal else None),
                               mag=LinearCorrection.build(self._R, cal.mag if cal else None),
-                              buffer=SampleBuffer(self.params.frames.block_s))
+                              buffer=SampleBuffer(self.params.frames.block_s),
+                              axes=tuple(self.params.axes))
         self._streams[(agent, device)] = stream
         return stream
 
