@@ -69,7 +69,7 @@ class MountConfig(BaseModel):
     rocking_deg_per_g: float = Field(1.0, ge=0, le=10, description="static tilt of the IMU "
                                      "on its strap per g of sideways / fore-aft specific "
                                      "force [deg/g]")
-    flex_deg: float = Field(10.0, ge=0, le=20, description="rotation of the upper under "
+    flex_deg: float = Field(12.0, ge=0, le=20, description="rotation of the upper under "
                             "the IMU relative to the sole over one ground contact [deg]")
     shear_mm: float = Field(2.5, ge=0, le=20, description="fore-aft shift of the upper over "
                             "the outsole under the braking and propulsive ground force "

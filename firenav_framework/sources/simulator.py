@@ -15,6 +15,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from ..components import Params, Source, param, pipeline_dir
+from ..simulator.imu_grades import ImuErrors
 from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range,
                         RssiReading, TagDeployment, TagDetection)
 from ..yaml_locations import ConfigError
@@ -58,6 +59,10 @@ class SimulatorSource(Source):
                                        "long (default: the scenario's own end)")
         block_s: float = param(0.1, unit="s", gt=0, le=10,
                                description="length of the ImuBlock pieces")
+        imu_errors: ImuErrors | None = param(None, description="errors of every foot IMU, "
+                                             "replacing the scenario's: as_worn, "
+                                             "calibrated, datasheet or ideal (default: the "
+                                             "scenario's own, as_worn unless it says)")
 
     @classmethod
     def output_ports(cls, params: Params) -> dict[str, type[Message]]:
@@ -69,7 +74,8 @@ class SimulatorSource(Source):
         super().__init__(params, ctx)
         from ..simulator import load_scenario, simulate
         self.scenario = load_scenario(_scenario_path(params.scenario, ctx.base_dir))
-        self.result = simulate(self.scenario, params.seed, duration_s=params.duration)
+        self.result = simulate(self.scenario, params.seed, duration_s=params.duration,
+                               imu_errors=params.imu_errors)
         self._ports = scenario_ports(self.scenario)
 
     def building(self):
