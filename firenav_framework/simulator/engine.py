@@ -26,7 +26,7 @@ from .gait import FootKinematics, foot_kinematics
 from .imu_errors import IndoorField, corrupt, earth_field_enu, magnetometer
 from .imu_grades import error_specs, get_grade
 from .imu_ideal import device_matrix, ideal_imu
-from .mount import MountMotion, imu_kinematics, mount_motion
+from .mount import MountMotion, imu_kinematics, mount_motion, rocking_on_all_fours
 from .movement import BodyTrack, Walker
 from .planner import Planner
 from .breadcrumb_faults import breadcrumb_fates
@@ -103,7 +103,7 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
         kin = mount = None
         table = w.stride_table()
         cfg = agent.sensors.imu
-        if cfg is not None:
+        if cfg is not None and cfg.switch_on_s < t_end - 1.0:   # else: the run ends before
             rec, kin, mount = _imu(b, sc, seed, agent, table, w, t_end, lat, imu_errors)
             imu[agent.id] = rec
         truth[agent.id] = AgentTruth(
@@ -277,10 +277,12 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
                                                   accel=cfg.accel, mag=cfg.mag)
     fs = cfg.rate_hz
     phase = rng_for(seed, "clock", agent.id).uniform(0, 1.0 / fs)
-    t = np.arange(phase, t_end, 1.0 / fs)
+    t = np.arange(cfg.switch_on_s + phase, t_end, 1.0 / fs)
     if table is None:   # never moves: a foot at rest at its start pose
         kin = FootKinematics.at_rest(t, walker.foot_p, [walker.foot_yaw, walker.foot_pitch, 0.0])
     else:
+        if cfg.mount is not None:
+            table = rocking_on_all_fours(table, cfg.mount)
         kin = foot_kinematics(table, t)
     mount = None
     if cfg.mount is not None and sc.model.foot_model == "realistic":
@@ -290,7 +292,8 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
     dev = device_matrix(cfg.axes, cfg.mount_deg)
     f, w = ideal_imu(kin, gravity=env.gravity, latitude_deg=lat if env.earth_rate else None,
                      device=dev, mount=mount)
-    temp = env.temperature.change_k * (1.0 - np.exp(-t / env.temperature.tau_s))
+    warm = t - cfg.switch_on_s
+    temp = env.temperature.change_k * (1.0 - np.exp(-warm / env.temperature.tau_s))
     acc, sat_a, err_a = corrupt(f, accel_spec, fs, rng_for(seed, "accel", agent.id),
                                 temperature_delta=temp)
     gyr, sat_g, err_g = corrupt(w, gyro_spec, fs, rng_for(seed, "gyro", agent.id),

@@ -91,7 +91,7 @@ GAITS: dict[str, Gait] = {
     # 20 deg/s for 0.26-0.43 s of each)
     "crawl": Gait(speed=0.4, stride=0.55, swing_s=1.05, toe_rocker_s=0.0, heel_rocker_s=0.0,
                   clearance=0.05, toe_off_deg=25, heel_strike_deg=0, roll_deg=5, sway=0.02,
-                  impact_mm=2.5, flex_scale=0.6, min_flat_s=0.25, posture="crawl"),
+                  impact_mm=2.5, min_flat_s=0.25, posture="crawl"),
     # running in a corridor at 3 m/s: 2.2 m strides every 0.73 s, about 0.25 s on the
     # ground with a short heel-to-forefoot roll and no still moment, the boot flexing
     # hard (the real running trials of ../shared/data at 1.3-2 m/s: quiet below 20 deg/s

@@ -462,7 +462,7 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _shortcuts(loop: np.ndarray, region, chance: float, rng: np.random.Generator
                ) -> np.ndarray:
     """Leave the wall now and then: every 4 m, with ``chance``, replace the next 3-8 m of
-    ``loop`` by a straight line inside ``region`` when that is at least 40 % shorter."""
+    ``loop`` by a straight line inside ``region`` when that is at least 25 % shorter."""
     if chance <= 0:
         return loop
     out = [loop[:1]]
@@ -477,7 +477,7 @@ def _shortcuts(loop: np.ndarray, region, chance: float, rng: np.random.Generator
         if rng.uniform() < chance and d + 3.0 < s[-1]:
             ahead = min(d + rng.uniform(3.0, 8.0), s[-1])
             a, b = at(d), at(ahead)
-            if (np.linalg.norm(b - a) < 0.6 * (ahead - d)
+            if (np.linalg.norm(b - a) < 0.75 * (ahead - d)
                     and shapely.covers(region, LineString([a, b]))):
                 out.append(np.array([a, b]))
                 d = ahead

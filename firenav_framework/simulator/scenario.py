@@ -227,6 +227,9 @@ class ImuConfig(_Model):
 
     grade: str = "industrial"
     errors: ImuErrors = "as_worn"
+    switch_on_s: float = Field(0.0, ge=0, description="when the unit is switched on [s]: it "
+                               "records from then (a firefighter who goes in later switches "
+                               "it on at the door: no still start to calibrate on)")
     rate_hz: float = Field(100.0, ge=50, le=1000)
     axes: str = Field("FLU", description="device axes on the foot, e.g. FLU or FRD (z down)")
     mount_deg: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="roll, pitch, "
@@ -354,7 +357,7 @@ class Deviations(_Model):
                             "before the search ends (a search cut short)")
     leave_wall: float = Field(0.0, ge=0, le=1, description="chance, every 4 m, of leaving "
                               "the wall: 3-8 m of the loop replaced by a straight line "
-                              "across the room when that is at least 40 % shorter")
+                              "across the room when that is at least 25 % shorter")
     backtrack_every_m: float | None = Field(None, gt=2, description="about this often, go "
                                             "back the way one came and on again")
     backtrack_m: tuple[float, float] = (1.0, 4.0)
