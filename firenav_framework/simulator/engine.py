@@ -103,7 +103,7 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
         kin = mount = None
         table = w.stride_table()
         cfg = agent.sensors.imu
-        if cfg is not None and cfg.switch_on_s < t_end - 1.0:   # else: the run ends before
+        if cfg is not None and cfg.switch_on_s < t_end - 2.0 / cfg.rate_hz:  # else: not on yet
             rec, kin, mount = _imu(b, sc, seed, agent, table, w, t_end, lat, imu_errors)
             imu[agent.id] = rec
         truth[agent.id] = AgentTruth(

@@ -1,17 +1,20 @@
 """Ways of moving (gaits) and the people who move (person variation).
 
-Defaults come from gait literature and the reference papers: normal walking at
-1.3 m/s with a 1.4 m stride, heel-off to foot-flat 0.93 s of which the foot rolls over
-its ball for 0.37 s (terminal stance and pre-swing, heel-off at about 27 % of the gait
-cycle) and down about its heel for 0.13 s (loading response, about 11 %), leaving
-about 0.15 s truly still; the timing, the impacts and the slower gaits' longer rockers
-were checked against the real recordings (``benchmarks/bench_sim_realism.py``);
-careful walking in smoke at 0.3-0.8 m/s (the issue; the breadcrumb paper's "trail
-step", Sec. V-C); searching at about 0.5 m/s; knee-walking
-and crawling far slower with the foot kept low and long stances; stairs one step per
-foot (a stride spans two treads), descended forwards or backwards (search-pattern
-paper Sec. II; RFID paper, gait classes FW/SC/SDF/SDB). A scenario may override any
-field per gait name or add gaits of its own.
+Defaults come from gait literature, the reference papers and the real recordings in
+``../shared/data``: normal walking at 1.3 m/s with a 1.4 m stride, heel-off to foot-flat
+1.07 s at most (the moving phase stays about a second long whatever the pace, the flat
+still stance takes up the rest of the stride, at least ``min_flat_s``), of which the
+foot rolls over its ball for 0.37 s (terminal stance and pre-swing) and down about its
+heel for 0.16 s (loading response); the boot flexes over a contact more the faster one
+walks (``flex_scale``). Timing, quiet time per stride, impacts and flex were checked per
+pace against the real VICON trials and the indoor walks (``benchmarks/bench_sim_realism.py``,
+docs/scenarios.md); running (3 m/s, no still moment) against the real running trials,
+crawling on hands and knees (the shoe on its top) against the real crawl trials.
+Careful walking in smoke at 0.3-0.8 m/s (the issue; the breadcrumb paper's "trail
+step", Sec. V-C); searching at about 0.5 m/s; knee-walking on tucked toes; stairs one
+step per foot (a stride spans two treads), descended forwards or backwards
+(search-pattern paper Sec. II; RFID paper, gait classes FW/SC/SDF/SDB). A scenario may
+override any field per gait name or add gaits of its own.
 """
 from __future__ import annotations
 
@@ -32,8 +35,9 @@ class Gait(BaseModel):
     stride: float = Field(1.4, gt=0.05, le=2.5,
                           description="stride length of one foot at this speed [m]")
     swing_s: float = Field(1.07, gt=0.2, le=3.0,
-                           description="heel-off to foot-flat [s]; the rest of the stride "
-                           "the foot is flat and still (about 0.15 s at normal walking)")
+                           description="heel-off to foot-flat [s] (at most: a stride keeps "
+                           "min_flat_s flat); the rest of the stride the foot is flat and "
+                           "still (0.1 s at 1.3 m/s, 0.2 s at 0.9 m/s)")
     toe_rocker_s: float = Field(0.37, ge=0, le=1.2, description="heel-off to toe-off [s]: "
                                 "the foot rolls over the ball (terminal stance and "
                                 "pre-swing, 20-30 % of the gait cycle)")

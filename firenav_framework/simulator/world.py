@@ -191,9 +191,11 @@ def _change(edit: _FloorEdit, kind: str, spec, floor_index: int, where: tuple) -
 def _pieces_along(room: Polygon, catalogue, count: int, keep_out, rng: np.random.Generator,
                   prefix: str, floor: int) -> list[Obstacle]:
     """Up to ``count`` pieces from ``catalogue`` against the walls of ``room``."""
-    ring = np.asarray(room.exterior.coords)
-    edges = [(ring[i], ring[i + 1]) for i in range(len(ring) - 1)
-             if np.linalg.norm(ring[i + 1] - ring[i]) > 1.2]
+    edges = []
+    for boundary in [room.exterior, *room.interiors]:     # a ring corridor has both
+        ring = np.asarray(boundary.coords)
+        edges += [(ring[i], ring[i + 1]) for i in range(len(ring) - 1)
+                  if np.linalg.norm(ring[i + 1] - ring[i]) > 1.2]
     placed: list[Obstacle] = []
     if not edges:
         return placed
@@ -246,7 +248,7 @@ def _furnish(edit: _FloorEdit, old, spec, rng: np.random.Generator) -> None:
         if count == 0 or short < (2.0 if corridor else 2.4):
             continue
         pieces = _pieces_along(room.polygon, CLUTTER if corridor else FURNITURE, count,
-                               keep_out, rng, f"{room.id}", old.index)
+                               keep_out, rng, f"world_{room.id}", old.index)
         if not pieces:
             continue
         before = _passages(edit, old, room.id)

@@ -7,7 +7,9 @@ default), ``uwb`` (Range, ``a=<agent>/uwb``, ``b=<anchor>``), ``rssi``
 (BreadcrumbDrop), ``rfid`` (TagDetection), ``tags`` (TagDeployment), ``truth``
 (GroundTruth per agent at the scenario's truth rate, with the floor).
 The source brings the scenario's building, so map-aided plugins need no
-``building:`` line.
+``building:`` line: the plan the scenario gives the pipeline (its ``building``), never
+the world the simulator walked when the scenario's ``world`` says the two differ
+(docs/scenarios.md, "True world and given plan"); the truth comes from the world.
 """
 from __future__ import annotations
 
@@ -15,9 +17,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from ..components import Params, Source, param, pipeline_dir
-from ..simulator.imu_grades import ImuErrors
 from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range,
                         RssiReading, TagDeployment, TagDetection)
+from ..simulator.imu_grades import ImuErrors
 from ..yaml_locations import ConfigError
 
 PORTS: dict[str, type[Message]] = {
@@ -79,6 +81,7 @@ class SimulatorSource(Source):
         self._ports = scenario_ports(self.scenario)
 
     def building(self):
+        """The plan the scenario gives the pipeline (not the simulated world)."""
         return self.result.building
 
     def duration(self) -> tuple[float, float]:
