@@ -15,8 +15,8 @@ from . import UsageError
 
 #: How ``--list`` introduces each family of bundled scenarios (a scenario's ``family``).
 FAMILIES = {
-    "paper": "the reference papers' experiments (sensors as worn; errors: calibrated or "
-             "datasheet for the papers' conditions)",
+    "paper": "the reference papers' experiments, IMUs as worn (imu_errors: calibrated or "
+             "datasheet for a unit calibrated at the door or on a lab bench)",
     "field": "field conditions: uncalibrated IMUs without a still start, furniture, plans "
              "that are wrong, deviating searches, large and multi-floor buildings, drawn "
              "radio, failing breadcrumbs, several teams",
