@@ -1,42 +1,39 @@
-"""INS-alone baselines of every reference scenario, over several seeds, beside the papers.
+"""INS alone on every bundled scenario (paper and field families), beside the papers' own.
 
-    .venv/bin/python benchmarks/bench_baselines.py                 # all scenarios, 5 seeds
-    .venv/bin/python benchmarks/bench_baselines.py --seeds 10 orca_test1 rfid_route
+    .venv/bin/python benchmarks/bench_baselines.py                     # report seeds 1000-1019
+    .venv/bin/python benchmarks/bench_baselines.py --seeds 100-139     # the tuning seeds
+    .venv/bin/python benchmarks/bench_baselines.py field_office_large orca_test1 --json out.json
 
-Each scenario runs through the same INS-alone pipeline: simulator -> foot_imu (the
-scenario's device axes to FLU) -> zupt_ins (plugin defaults) -> dead_reckoning with no
-constraint, aligned with the true start (IMU position, walking heading: ideal
-alignment, what is left is sensor drift). Two variants of the INS:
+Each scenario runs through one INS-alone pipeline: simulator -> foot_imu (the scenario's
+device axes to FLU) -> zupt_ins with its defaults (no still-start gyro calibration) ->
+dead_reckoning with no constraint, aligned with the truth at its first pose (what a
+GNSS fix at the door would give: what is left is the sensors' and the INS's drift). The
+IMUs have the scenarios' own errors: as worn unless a scenario says otherwise.
 
-* ``as cal.``: the sensor as calibrated before the run (factory, or the user's lab
-  calibration where the paper says so); the turn-on bias left over drives the drift;
-* ``+still``: the INS also takes the gyro bias from the still start (``alignment.gyro_bias``
-  over the scenario's first seconds), as foot-INS products do; then only in-run
-  instability, the boot's warm-up (thermal drift) and g-sensitivity drive it.
+The figure beside each paper's is measured the way that paper did:
 
-The figure printed beside each paper's number is measured the way the paper did:
+* ORCA tests I-III (orca-map-matching Tables 2/3) and the field corridor run: RMSE and
+  largest error at the marked stops (checkpoints);
+* breadcrumb loop (breadcrumb-gen-rmg Sec. V-A: INS alone "more than 35 m" off after
+  400 m) and the other breadcrumb scenarios: the error where each firefighter ends;
+* RFID route (rfid-mems-ekf: MEMS alone 19.3 m mean, 9.8 m std): the error at each tag
+  read (the reader's detections);
+* ZUPT extension long trial ("several metres" for plain ZUPT after ten minutes) and the
+  field's ten minutes over three storeys: the error at the end, horizontal and vertical;
+* search-pattern data sets (the paper reports no INS-alone figure; its walls-only
+  particle filter: about 4 m) and the other searches: the RMSE over the whole track.
 
-* ORCA tests I-III (orca-map-matching Table 2/3): RMSE and max error at the check
-  points (the scenario's marked stops), mean over runs;
-* breadcrumb loop (breadcrumb-gen-rmg Sec. V-A): error at the end of the 400 m ("more
-  than 35 meters") and the mean error;
-* RFID route (rfid-mems-ekf, Performance assessment): mean and std of the errors where
-  tags were stuck (MEMS alone 19.3 m mean, 9.8 m std);
-* ZUPT extension long trial: error at the end of ten minutes, horizontal and vertical;
-* search-pattern data sets 1 and 2: INS alone is not reported (its baseline is a
-  particle filter); printed for reference;
-* indoor_walk: the real-data check - error at every step after a rigid fit on the
-  first 5 steps, % of distance, to set beside bench_ins_real_data.py's indoor walks
-  (same IMU model, same INS: 0.5-2 %, mean 1.1 %).
+The real-data twin ``indoor_walk`` is measured against the real walks by
+``benchmarks/bench_sim_realism.py`` (their own metric: footfalls after a 5-step fit).
 
-Nothing is tuned per seed; every row uses the seeds 0..N-1. The table goes to stdout
-and, with --json, to a file (docs/scenarios.md quotes it).
+Per row the main figure's mean over the runs (every agent of every seed) and its spread
+(min / median / max). Nothing here is tuned; the table goes to stdout (markdown) and with
+--json to a file; docs/scenarios.md quotes the report seeds.
 """
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import tempfile
 import time
@@ -56,21 +53,33 @@ from firenav_framework.simulator import load_scenario, simulate  # noqa: E402
 @dataclass
 class Row:
     scenario: str
-    paper: str               # what the paper reports
-    measure: str             # how we measure it here
+    paper: str               # what the paper reports for INS/MEMS alone
+    measure: str             # checkpoints | end | tag_reads | dense
 
 
 ROWS = [
-    Row("orca_test1", "RMSE 3.63 m, max 4.16 m", "checkpoints"),
-    Row("orca_test2", "RMSE 3.26 m, max 3.89 m", "checkpoints"),
-    Row("orca_test3", "RMSE 5.59 m, max 7.06 m", "checkpoints"),
-    Row("breadcrumb_loop", "end > 35 m after 400 m", "end"),
-    Row("rfid_route", "mean 19.3 m, std 9.8 m at tags", "tags"),
-    Row("zupt_multifloor", "plain ZUPT several m; ext. < 5 m, z < 2 m", "end"),
-    Row("search_flat_right", "not reported", "dense"),
-    Row("search_flat_left", "not reported", "dense"),
-    Row("search_area250", "not reported", "dense"),
-    Row("indoor_walk", "real walks (same INS): 0.5-2 %, mean 1.1 %", "steps"),
+    Row("orca_test1", "RMSE 3.63, max 4.16 at the stops", "checkpoints"),
+    Row("orca_test2", "RMSE 3.26, max 3.89", "checkpoints"),
+    Row("orca_test3", "RMSE 5.59, max 7.06", "checkpoints"),
+    Row("breadcrumb_loop", "end > 35 after 400 m", "end"),
+    Row("breadcrumb_fire", "-", "end"),
+    Row("rfid_route", "mean 19.3, std 9.8 at the tags", "tag_reads"),
+    Row("rfid_teams", "(as rfid_route)", "tag_reads"),
+    Row("zupt_multifloor", "plain ZUPT: several m after 10 min", "end"),
+    Row("search_flat_right", "- (walls-only PF: ~4)", "dense"),
+    Row("search_flat_left", "- (walls-only PF: ~4)", "dense"),
+    Row("search_area250", "- (walls-only PF: ~4)", "dense"),
+    Row("demo", "-", "dense"),
+    Row("field_flat_wrong_plan", "-", "dense"),
+    Row("field_flat_consumer", "-", "dense"),
+    Row("field_crawl_search", "-", "dense"),
+    Row("field_office_large", "-", "dense"),
+    Row("field_apartments", "-", "dense"),
+    Row("field_corridor_run", "(ORCA: RMSE 3.3-5.6)", "checkpoints"),
+    Row("field_rfid_uncalibrated", "(RFID: mean 19.3)", "tag_reads"),
+    Row("field_breadcrumb_fire", "-", "end"),
+    Row("field_breadcrumb_loop", "(breadcrumb: end > 35)", "end"),
+    Row("field_multifloor_long", "(ZUPT ext.: several m)", "end"),
 ]
 
 PIPELINE = """\
@@ -80,123 +89,115 @@ sources:
 sensors:
   - {{id: imu, plugin: foot_imu, input: sim.imu, axes: {axes}}}
 estimators:
-  - {{id: ins, plugin: zupt_ins, input: imu.imu,
-     alignment: {{gyro_bias: {still}, duration: {align_s}}}}}
-  - id: dr
-    plugin: dead_reckoning
-    input: ins.odometry
-    start: {{mode: pose, agents: {poses}}}
+  - {{id: ins, plugin: zupt_ins, input: imu.imu}}
+  - {{id: dr, plugin: dead_reckoning, input: [ins.odometry, sim.truth], start: {{mode: truth}}}}
 """
 
 #: foot_imu ``axes`` (device axis that becomes FLU x, y, z) per device frame.
 AXES = {"FLU": ["x", "y", "z"], "FRD": ["x", "-y", "-z"]}
 
 
-def start_poses(scenario: str) -> dict[str, dict]:
-    """True start of every agent (the same for every seed): the IMU's position and the
-    body's heading (dead_reckoning maps the INS's walking direction onto it)."""
-    r = simulate(scenario, 0, duration_s=1.0)
-    out = {}
-    for agent, tr in r.truth.items():
-        p, heading = tr.foot.position[0], tr.heading[0]
-        out[agent] = {"position": [round(float(v), 6) for v in p],
-                      "heading": round(float(heading), 6)}
-    return out
+def parse_seeds(text: str) -> list[int]:
+    if "-" in text:
+        a, b = text.split("-")
+        return list(range(int(a), int(b) + 1))
+    return [int(x) for x in text.split(",")]
 
 
-def _tag_checkpoints(sim_result, agent: str) -> Checkpoints:
-    """Where (and when) the agent stuck its tags, as checkpoints."""
-    tags = [v for v in sim_result.tags.values() if v["agent"] == agent]
+def _tag_reads(sim_result, agent: str) -> Checkpoints | None:
+    """Where (and when) the agent's reader detected a tag, as checkpoints."""
+    t = np.array([m.t for m in sim_result.messages.get("rfid", []) if m.agent == agent])
+    if not len(t):
+        return None
     tr = sim_result.truth[agent]
-    t = np.array([v["t"] for v in tags])
     pos = np.column_stack([np.interp(t, tr.t, tr.position[:, i]) for i in range(3)])
-    return Checkpoints(agent, t, pos, np.full(len(t), -1))
+    return Checkpoints(agent, t, pos, np.asarray(sim_result.world.floor_of_z(pos[:, 2])))
 
 
-def measure(row: Row, seeds: list[int], work: Path, still: bool) -> dict:
+def measure(row: Row, seeds: list[int], work: Path) -> dict:
     sc = load_scenario(row.scenario)
-    cfg = sc.model.agents[0].sensors.imu
-    path = work / f"{row.scenario}-{still}.yaml"
-    path.write_text(PIPELINE.format(
-        scenario=row.scenario, poses=json.dumps(start_poses(row.scenario)),
-        axes=json.dumps(AXES[cfg.axes]), still=str(still).lower(),
-        align_s=max(0.1, sc.model.agents[0].start.time_s - 1.0)))
+    frames = {a.sensors.imu.axes for a in sc.model.agents if a.sensors.imu is not None}
+    if len(frames) != 1:
+        raise SystemExit(f"{row.scenario}: agents with different IMU axes {frames}")
+    path = work / f"{row.scenario}.yaml"
+    path.write_text(PIPELINE.format(scenario=row.scenario, axes=json.dumps(AXES[frames.pop()])))
     mode = "checkpoints" if row.measure == "checkpoints" else "dense"
     t0 = time.monotonic()
     ev = evaluate(path, seeds=seeds, truth_mode=mode)
-    out = {"scenario": row.scenario, "grade": cfg.grade, "still_calibration": still,
-           "paper": row.paper, "seeds": len(seeds), "wall_s": round(time.monotonic() - t0, 1),
-           "rmse_m": ev.overall.rmse_m, "mean_m": ev.overall.mean_m, "max_m": ev.overall.max_m,
-           "distance_m": ev.overall.distance_m,
-           "mean_pct_distance": ev.overall.mean_pct_distance}
-    ends, ends_z, maxes, rmses, tag_errs, step_pct = [], [], [], [], [], []
+    main, second = [], []
     for run in ev.runs:
-        sim = simulate(row.scenario, run.seed) if row.measure == "tags" else None
+        sim = simulate(row.scenario, run.seed) if row.measure == "tag_reads" else None
         for agent, err in run.errors.items():
-            maxes.append(float(err.horizontal.max()))
-            rmses.append(float(np.sqrt(np.mean(err.horizontal ** 2))))
-            ends.append(float(err.horizontal[-1]))
-            ends_z.append(float(abs(err.vertical[-1])) if err.vertical.size else math.nan)
-            tr, truth = run.tracks[agent], run.truth[agent]
-            if row.measure == "tags":
-                e, _ = checkpoint_errors(tr, _tag_checkpoints(sim, agent))
-                tag_errs.extend(e.horizontal.tolist())
-            if row.measure == "steps":
-                pos = np.column_stack([np.interp(tr.t, truth.t, truth.position[:, i])
-                                       for i in range(3)])
-                e, _ = checkpoint_errors(tr, Checkpoints(agent, tr.t, pos, tr.floor),
-                                         align="first:5", distance_m=err.distance_m)
-                step_pct.append(100.0 * float(e.horizontal.mean()) / err.distance_m)
-    out.update({"rmse_per_run_mean": float(np.mean(rmses)),
-                "max_per_run_mean": float(np.mean(maxes)),
-                "end_mean_m": float(np.mean(ends)), "end_min_m": float(np.min(ends)),
-                "end_max_m": float(np.max(ends)), "end_vertical_mean_m": float(np.nanmean(ends_z))})
-    if tag_errs:
-        out.update({"tag_mean_m": float(np.mean(tag_errs)), "tag_std_m": float(np.std(tag_errs))})
-    if step_pct:
-        out.update({"step_pct_mean": float(np.mean(step_pct)),
-                    "step_pct_min": float(np.min(step_pct)),
-                    "step_pct_max": float(np.max(step_pct))})
-    return out
+            h = err.horizontal
+            if row.measure == "checkpoints":
+                main.append(float(np.sqrt(np.mean(h ** 2))))
+                second.append(float(h.max()))
+            elif row.measure == "end":
+                main.append(float(h[-1]))
+                second.append(float(abs(err.vertical[-1])) if err.vertical.size else np.nan)
+            elif row.measure == "tag_reads":
+                cps = _tag_reads(sim, agent)
+                if cps is None:
+                    continue
+                e, _ = checkpoint_errors(run.tracks[agent], cps)
+                main.extend(e.horizontal.tolist())
+            else:
+                main.append(float(np.sqrt(np.mean(h ** 2))))
+                second.append(100.0 * float(h.mean()) / err.distance_m)
+    a = np.array(main, float)
+    b = np.array(second, float)
+    grades = sorted({ag.sensors.imu.grade for ag in sc.model.agents if ag.sensors.imu})
+    return {"scenario": row.scenario, "family": sc.model.family, "grades": grades,
+            "paper": row.paper, "measure": row.measure, "seeds": [seeds[0], seeds[-1]],
+            "runs": len(ev.runs), "values": len(a), "wall_s": round(time.monotonic() - t0, 1),
+            "mean": float(a.mean()), "min": float(a.min()), "median": float(np.median(a)),
+            "max": float(a.max()), "std": float(a.std()),
+            "second_mean": float(np.nanmean(b)) if b.size else None,
+            "second_max": float(np.nanmax(b)) if b.size else None}
 
 
-def ours(row: Row, m: dict) -> str:
-    if row.measure == "checkpoints":
-        return f"RMSE {m['rmse_per_run_mean']:.2f}, max {m['max_per_run_mean']:.2f}"
-    if row.measure == "tags":
-        return f"mean {m.get('tag_mean_m', math.nan):.1f}, std {m.get('tag_std_m', math.nan):.1f}"
-    if row.measure == "end":
-        return (f"end {m['end_mean_m']:.1f} ({m['end_min_m']:.1f}-{m['end_max_m']:.1f}), "
-                f"z {m['end_vertical_mean_m']:.1f}")
-    if row.measure == "steps":
-        return (f"{m['step_pct_mean']:.2f} % ({m['step_pct_min']:.2f}-"
-                f"{m['step_pct_max']:.2f})")
-    return f"RMSE {m['rmse_m']:.2f}, {m['mean_pct_distance']:.1f} % of {m['distance_m']:.0f} m"
+FIGURE = {"checkpoints": "RMSE at the stops [m] (max)", "end": "end error [m] (height)",
+          "tag_reads": "error at the tag reads [m] (std)",
+          "dense": "RMSE [m] (mean % of distance)"}
+
+
+def cell(m: dict) -> str:
+    second = ""
+    if m["measure"] == "checkpoints":
+        second = f"; max {m['second_mean']:.1f}"
+    elif m["measure"] == "end" and m["second_mean"] is not None:
+        second = f"; height {m['second_mean']:.1f}"
+    elif m["measure"] == "tag_reads":
+        second = f"; std {m['std']:.1f}"
+    elif m["measure"] == "dense":
+        second = f"; {m['second_mean']:.1f} % of distance"
+    return (f"{m['mean']:.2f} [{m['min']:.2f} / {m['median']:.2f} / {m['max']:.2f}]{second}")
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scenarios", nargs="*", help="subset of scenarios (default all)")
-    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--seeds", default="1000-1019", help="A-B or a,b,c (default: the "
+                    "report seeds 1000-1019)")
     ap.add_argument("--json", type=Path, help="write the figures to this file")
     args = ap.parse_args()
     rows = [r for r in ROWS if not args.scenarios or r.scenario in args.scenarios]
-    seeds = list(range(args.seeds))
+    seeds = parse_seeds(args.seeds)
     results = []
-    print(f"INS alone (zupt_ins + dead_reckoning, ideal start alignment), seeds 0-{seeds[-1]}, "
-          "metres unless stated")
-    print(f"{'scenario':<18} {'IMU grade':<23} {'paper':<42} {'ours, as cal.':<30} "
-          f"ours, +still")
+    print(f"INS alone (zupt_ins defaults + dead_reckoning aligned with the truth), seeds "
+          f"{seeds[0]}-{seeds[-1]}; mean [min / median / max] over the runs, metres unless "
+          "stated\n")
+    print("| scenario | family | IMU (as worn) | paper, INS/MEMS alone | figure | INS alone |")
+    print("|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for row in rows:
-            a = measure(row, seeds, Path(tmp), still=False)
-            b = measure(row, seeds, Path(tmp), still=True)
-            results += [a, b]
-            print(f"{row.scenario:<18} {a['grade']:<23} {row.paper:<42} {ours(row, a):<30} "
-                  f"{ours(row, b)}  [{a['wall_s'] + b['wall_s']:.0f} s]", flush=True)
-    if args.json:
-        args.json.write_text(json.dumps(results, indent=1) + "\n")
+            m = measure(row, seeds, Path(tmp))
+            results.append(m)
+            print(f"| {row.scenario} | {m['family']} | {', '.join(m['grades'])} | {row.paper} | "
+                  f"{FIGURE[row.measure]} | {cell(m)} |", flush=True)
+            if args.json:
+                args.json.write_text(json.dumps(results, indent=1) + "\n")
     return 0
 
 

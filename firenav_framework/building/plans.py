@@ -20,6 +20,13 @@ checks the files match). Walls are zero-thickness centre lines, doors 0.9-1.2 m 
 * ``three_storey``: a 30 x 14 m building of three storeys (3.5 m floor to floor) with a
   U-shaped stairwell in the west end, the main entrance to the south and offices on a
   central corridor (rfid-mems-ekf "Testing scenario"; zupt-extension stair-house trials).
+* ``office_900``: a 45 x 20 m (900 m^2) office floor: a 2.4 m corridor end to end with
+  exits at both ends, eight rooms to the south (one a 10 m meeting room with two doors)
+  and nine to the north (two connected, a kitchen open to the corridor), most of them
+  alike: 18 rooms, a floor as large as the field scenarios need.
+* ``apartments_4``: a four-storey block of flats, 20 x 12 m (2.9 m floor to floor): a
+  stair core in the middle with the entrance to the south and a U stair, a flat of five
+  rooms on either side of it on every storey.
 """
 from __future__ import annotations
 
@@ -181,8 +188,75 @@ def three_storey() -> PlanSketch:
     return sk
 
 
+def office_900() -> PlanSketch:
+    sk = PlanSketch("office_900")
+    f = sk.floor(0.0, 3.2, "ground")
+    f.room("corridor", (0.0, 8.8, 45.0, 11.2), "corridor", use="corridor")
+    south = [0.0, 5.0, 10.0, 15.0, 25.0, 30.0, 35.0, 40.0, 45.0]
+    for k, (x0, x1) in enumerate(zip(south, south[1:]), 1):
+        meeting = x1 - x0 > 6.0
+        f.room(f"s{k}", (x0, 0.0, x1, 8.8), "meeting room" if meeting else f"office S{k}")
+        if meeting:
+            f.door(f"d_s{k}a", (x0 + 1.5, 8.8), DOOR, NORTH)
+            f.door(f"d_s{k}b", (x1 - 1.5, 8.8), DOOR, NORTH)
+        else:
+            f.door(f"d_s{k}", (x1 - 1.0, 8.8), DOOR, NORTH)
+    for k in range(9):
+        x0 = 5.0 * k
+        kitchen = k == 8
+        f.room(f"n{k + 1}", (x0, 11.2, x0 + 5.0, 20.0), "kitchen" if kitchen else
+               f"office N{k + 1}")
+        if kitchen:
+            f.opening(f"o_n{k + 1}", (x0 + 2.5, 11.2), 2.0, NORTH)
+        else:
+            f.door(f"d_n{k + 1}", (x0 + 1.0, 11.2), DOOR, NORTH)
+    f.door("d_n4_n5", (20.0, 17.0), DOOR, EAST)       # N5 also opens into N4
+    f.door("d_west", (0.0, 10.0), EXIT, EAST)
+    f.door("d_east", (45.0, 10.0), EXIT, (-1.0, 0.0))
+    sk.entrance("west", (0.0, 10.0), door="d_west")
+    sk.entrance("east", (45.0, 10.0), door="d_east")
+    sk.anchor("base", (-3.0, 10.0), height=1.0, kind="base_station")
+    sk.georef(52.2297, 21.0122)          # Warsaw
+    return sk
+
+
+def apartments_4() -> PlanSketch:
+    sk = PlanSketch("apartments_4")
+    # U stair in the core x 8..12, y 6..12: flight 1 north at x = 9, landing at y = 11.2,
+    # flight 2 south at x = 11; each storey's part of the core south of it is its lobby.
+    stair_path = [(9.0, 6.6), (9.0, 11.2), (11.0, 11.2), (11.0, 6.6)]
+    for level in range(4):
+        f = sk.floor(2.9 * level, 2.9, ["ground", "first", "second", "third"][level])
+        f.room(f"{level}core", (8.0, 0.0, 12.0, 12.0), "stair core", use="stairwell")
+        for side, x0, x1, door_x, sign in (("w", 0.0, 8.0, 8.0, -1.0), ("e", 12.0, 20.0, 12.0,
+                                                                          1.0)):
+            inner, outer = (5.0, 8.0) if side == "w" else (12.0, 15.0)
+            room_x = (x0, 5.0) if side == "w" else (15.0, x1)
+            f.room(f"{level}{side}h", (inner, 3.0, outer, 9.0), "flat hallway", use="corridor")
+            f.room(f"{level}{side}l", (room_x[0], 6.0, room_x[1], 12.0), "living room")
+            f.room(f"{level}{side}b", (room_x[0], 0.0, room_x[1], 6.0), "bedroom")
+            f.room(f"{level}{side}k", (inner, 9.0, outer, 12.0), "kitchen")
+            f.room(f"{level}{side}ba", (inner, 0.0, outer, 3.0), "bathroom")
+            inner_wall = 5.0 if side == "w" else 15.0
+            mid = (inner + outer) / 2
+            f.door(f"d{level}{side}_flat", (door_x, 4.5), DOOR, (sign, 0.0))
+            f.door(f"d{level}{side}_l", (inner_wall, 7.5), DOOR, (-sign, 0.0))
+            f.door(f"d{level}{side}_b", (inner_wall, 4.5), DOOR, (-sign, 0.0))
+            f.door(f"d{level}{side}_k", (mid, 9.0), DOOR, NORTH)
+            f.door(f"d{level}{side}_ba", (mid, 3.0), 0.8, NORTH)
+        if level < 3:
+            f.stair(f"stair{level}{level + 1}", stair_path, floor_to=level + 1, width=1.0,
+                    n_steps=17)
+    sk.floors[0].door("d_main", (10.0, 0.0), 1.2, NORTH)
+    sk.entrance("main", (10.0, 0.0), door="d_main")
+    sk.anchor("base", (10.0, -4.0), height=1.0, kind="base_station")
+    sk.georef(51.7592, 19.4560)          # Lodz
+    return sk
+
+
 PLANS = {"flat_125": flat_125, "area_250": area_250, "office_loop": office_loop,
-         "corridor": corridor, "three_storey": three_storey}
+         "corridor": corridor, "three_storey": three_storey, "office_900": office_900,
+         "apartments_4": apartments_4}
 
 
 def write_all(directory: Path = DATA_DIR) -> list[Path]:

@@ -3,7 +3,7 @@
 The folder then holds what live sensors would have recorded (IMU CSV per foot IMU,
 the other sensor streams as JSON lines) plus the ground truth; replay it with the
 ``recording`` source pointed at ``DIR/streams.jsonl``. ``--list`` shows the bundled
-scenarios. Formats: docs/formats/simulation-output.md.
+scenarios by family (paper, field, twin, demo). Formats: docs/formats/simulation-output.md.
 """
 from __future__ import annotations
 
@@ -12,6 +12,18 @@ import time
 from pathlib import Path
 
 from . import UsageError
+
+#: How ``--list`` introduces each family of bundled scenarios (a scenario's ``family``).
+FAMILIES = {
+    "paper": "the reference papers' experiments, IMUs as worn (imu_errors: calibrated or "
+             "datasheet for a unit calibrated at the door or on a lab bench)",
+    "field": "field conditions: uncalibrated IMUs without a still start, furniture, plans "
+             "that are wrong, deviating searches, large and multi-floor buildings, drawn "
+             "radio, failing breadcrumbs, several teams",
+    "twin": "twins of the real recordings in ../shared/data",
+    "demo": "the embedded default",
+}
+FAMILY_ORDER = ["paper", "field", "twin", "demo"]
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -32,9 +44,15 @@ def run(args: argparse.Namespace) -> int:
     from ..simulator import bundled_scenarios, load_scenario, simulate
     from ..simulator.output import write_simulation
     if args.list:
+        families: dict[str, list] = {}
         for name in bundled_scenarios():
             sc = load_scenario(name)
-            print(f"  {name:<20} {sc.model.description}")
+            families.setdefault(sc.model.family or "other", []).append(sc)
+        for family in sorted(families, key=lambda f: (FAMILY_ORDER.index(f)
+                                                      if f in FAMILY_ORDER else 99, f)):
+            print(f"{family}: {FAMILIES.get(family, '')}")
+            for sc in families[family]:
+                print(f"  {sc.name:<26} {sc.model.description}")
         return 0
     if not args.scenario:
         raise UsageError("give a scenario (file or bundled name), or --list")

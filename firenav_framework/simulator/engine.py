@@ -1,6 +1,7 @@
 """``simulate(scenario, seed)``: plan, walk, sense; one deterministic run.
 
-Order of work: the planner turns every leader's plan into legs (tags get stuck as the
+Order of work: the real building is made from the plan (:mod:`.world`: furniture, the
+plan's errors); the planner turns every leader's plan into legs (tags get stuck as the
 first deploying agent passes doors); followers copy their leader's legs ``lag_s``
 later; each :class:`~.movement.Walker` places footfalls; the foot kinematics give
 the IMU's ideal readings, which the grade's errors corrupt; the body tracks drive the
@@ -23,16 +24,18 @@ from ..messages import (BreadcrumbDrop, GroundTruth, Range, RssiReading, TagDepl
                         TagDetection)
 from .gait import FootKinematics, foot_kinematics
 from .imu_errors import IndoorField, corrupt, earth_field_enu, magnetometer
-from .imu_grades import AccelSpec, GyroSpec, MagSpec, get_grade
+from .imu_grades import error_specs, get_grade
 from .imu_ideal import device_matrix, ideal_imu
-from .mount import MountMotion, imu_kinematics, mount_motion
+from .mount import MountMotion, imu_kinematics, mount_motion, rocking_on_all_fours
 from .movement import BodyTrack, Walker
 from .planner import Planner
-from .radio import LinkModel, Node, packet_readings, simulate_dispensers
+from .breadcrumb_faults import breadcrumb_fates
+from .radio import LinkModel, Node, drawn_radio, packet_readings, simulate_dispensers
 from .result import AgentTruth, ImuRecord, SimulationResult
 from .rfid import rfid_detections
 from .scenario import AgentSpec, Scenario, load_scenario
 from .uwb import uwb_ranges
+from .world import WorldError, build_world
 
 RADIO_HEIGHT = 1.2      # worn radio above the floor [m]
 
@@ -43,15 +46,18 @@ def rng_for(seed: int, *names: str) -> np.random.Generator:
 
 
 def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: float | None = None,
-             building=None) -> SimulationResult:
+             building=None, imu_errors: str | None = None) -> SimulationResult:
     """Run ``scenario`` (a Scenario, a file or a bundled name) with ``seed``.
 
     ``duration_s`` caps the run (else the scenario's ``duration_s``, else until every
-    plan has ended plus ``end_still_s``).
+    plan has ended plus ``end_still_s``). ``imu_errors`` (one of
+    :data:`~.imu_grades.IMU_ERRORS`) replaces every IMU's own ``errors`` setting.
     """
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     m = sc.model
-    b = building if building is not None else load_building(sc.building_path)
+    plan = building if building is not None else load_building(sc.building_path)
+    # everything below happens in the real building; the pipeline gets the plan
+    b = _world(sc, plan, seed)
     planner = Planner(b, sc, rng_for(seed, "planner"))
 
     # -- movement -------------------------------------------------------------------
@@ -60,7 +66,8 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
     for i, agent in enumerate(m.agents):
         if agent.follow is not None:
             continue
-        start, legs = planner.plan(agent, sc.steps[agent.id], ("agents", i))
+        start, legs = planner.plan(agent, sc.steps[agent.id], ("agents", i),
+                                   rng_for(seed, "deviate", agent.id))
         plans[agent.id] = (start, legs, agent.start.time_s)
         person = agent.person.drawn(rng_for(seed, "person", agent.id))
         walkers[agent.id] = _walk(b, sc, seed, agent, person, start, legs, agent.start.time_s,
@@ -96,8 +103,8 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
         kin = mount = None
         table = w.stride_table()
         cfg = agent.sensors.imu
-        if cfg is not None:
-            rec, kin, mount = _imu(b, sc, seed, agent, table, w, t_end, lat)
+        if cfg is not None and cfg.switch_on_s < t_end - 2.0 / cfg.rate_hz:  # else: not on yet
+            rec, kin, mount = _imu(b, sc, seed, agent, table, w, t_end, lat, imu_errors)
             imu[agent.id] = rec
         truth[agent.id] = AgentTruth(
             agent=agent.id, t=tt, position=pos, heading=hd,
@@ -195,8 +202,9 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
     radios = [a for a in m.agents if (a.sensors.radio if a.sensors.radio is not None
                                       else bool(dispensers))]
     breadcrumbs: dict[str, dict] = {}
+    radio = drawn_radio(m.radio, rng_for(seed, "radio-draw", b.name))
     if radios or dispensers:
-        model = LinkModel(m.radio, b, m.fires, rng_for(seed, "radio-field"))
+        model = LinkModel(radio, b, m.fires, rng_for(seed, "radio-field"))
         fixed = []
         base = m.radio.base_station
         if base is not None and base in anchors:
@@ -208,13 +216,17 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
                                                    for a in dispensers], t_end,
                                     rng_for(seed, "dispensers"),
                                     floor_z=lambda f: b.floor(f).z)
+        fates = breadcrumb_fates(
+            drops, {a.id: a.sensors.dispenser.faults for a in dispensers},
+            {a.id: worn(a.id, 0.0) for a in m.agents}, m.fires, b, t_end,
+            rng_for(seed, "breadcrumb-fates"))
         for d in drops:
             breadcrumbs[d.node_id] = {"position": d.position, "floor": d.floor, "t": d.t,
-                                      "agent": d.agent}
+                                      "agent": d.agent, **fates[d.node_id].record()}
         messages["drops"] = [BreadcrumbDrop(t=d.t, agent=d.agent, device=f"{d.agent}/dispenser",
                                             node_id=d.node_id) for d in drops]
-        nodes = fixed + [Node(d.node_id, position=d.position, floor=d.floor, t_on=d.t)
-                         for d in drops] + [worn_nodes[a.id] for a in radios]
+        nodes = fixed + [fates[d.node_id].node(d) for d in drops] + [worn_nodes[a.id]
+                                                                      for a in radios]
         readings = packet_readings(model, nodes, t_end, rng_for(seed, "packets"))
         messages["rssi"] = [RssiReading(t=t, agent=rx.agent or (
             tx if tx in worn_nodes else ""), device=rx.id if not rx.agent else f"{rx.agent}/radio",
@@ -224,11 +236,25 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
     anchors_out = {k: {**v, "position": v["position"]} for k, v in anchors.items()}
     # the scenario's own anchors (a UWB anchor left at the entrance) belong to the building
     # the pipeline sees, so estimators can place the ranges measured to them
-    b = dataclasses.replace(b, anchors=[Anchor(id=k, kind=v["kind"], position=v["position"],
-                                               floor=v["floor"]) for k, v in anchors.items()])
-    return SimulationResult(scenario=sc, seed=int(seed), building=b, t_end=float(t_end),
-                            imu=imu, truth=truth, messages=messages, tags=tags,
-                            breadcrumbs=breadcrumbs, anchors=anchors_out, extra=extra)
+    fixed = [Anchor(id=k, kind=v["kind"], position=v["position"], floor=v["floor"])
+             for k, v in anchors.items()]
+    world = dataclasses.replace(b, anchors=fixed)
+    given = world if b is plan else dataclasses.replace(plan, anchors=fixed)
+    return SimulationResult(scenario=sc, seed=int(seed), building=given, world=world,
+                            t_end=float(t_end), imu=imu, truth=truth, messages=messages,
+                            tags=tags, breadcrumbs=breadcrumbs, anchors=anchors_out, extra=extra,
+                            radio=radio.model_dump(exclude={"base_station", "draw"}))
+
+
+def _world(sc: Scenario, plan, seed: int):
+    """The building as it really is (the plan itself when the scenario has no ``world``)."""
+    if sc.model.world is None:
+        return plan
+    base = load_building(sc.world_path) if sc.world_path is not None else None
+    try:
+        return build_world(plan, sc.model.world, rng_for(seed, "world"), base=base)
+    except WorldError as exc:
+        raise sc.problem(exc.where, str(exc)) from None
 
 
 def _walk(b, sc: Scenario, seed: int, agent: AgentSpec, person, start, legs, t0: float,
@@ -242,19 +268,21 @@ def _walk(b, sc: Scenario, seed: int, agent: AgentSpec, person, start, legs, t0:
 
 
 def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_end: float,
-         lat: float) -> tuple[ImuRecord, FootKinematics, MountMotion | None]:
+         lat: float, imu_errors: str | None) -> tuple[ImuRecord, FootKinematics,
+                                                     MountMotion | None]:
     cfg = agent.sensors.imu
     env = sc.model.environment
-    grade = get_grade(cfg.grade)
-    gyro_spec = GyroSpec(**{**grade.gyro.model_dump(), **cfg.gyro})
-    accel_spec = AccelSpec(**{**grade.accel.model_dump(), **cfg.accel})
-    mag_spec = MagSpec(**{**grade.mag.model_dump(), **cfg.mag})
+    errors = imu_errors or cfg.errors
+    gyro_spec, accel_spec, mag_spec = error_specs(get_grade(cfg.grade), errors, gyro=cfg.gyro,
+                                                  accel=cfg.accel, mag=cfg.mag)
     fs = cfg.rate_hz
     phase = rng_for(seed, "clock", agent.id).uniform(0, 1.0 / fs)
-    t = np.arange(phase, t_end, 1.0 / fs)
+    t = np.arange(cfg.switch_on_s + phase, t_end, 1.0 / fs)
     if table is None:   # never moves: a foot at rest at its start pose
         kin = FootKinematics.at_rest(t, walker.foot_p, [walker.foot_yaw, walker.foot_pitch, 0.0])
     else:
+        if cfg.mount is not None:
+            table = rocking_on_all_fours(table, cfg.mount)
         kin = foot_kinematics(table, t)
     mount = None
     if cfg.mount is not None and sc.model.foot_model == "realistic":
@@ -264,7 +292,8 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
     dev = device_matrix(cfg.axes, cfg.mount_deg)
     f, w = ideal_imu(kin, gravity=env.gravity, latitude_deg=lat if env.earth_rate else None,
                      device=dev, mount=mount)
-    temp = env.temperature.change_k * (1.0 - np.exp(-t / env.temperature.tau_s))
+    warm = t - cfg.switch_on_s
+    temp = env.temperature.change_k * (1.0 - np.exp(-warm / env.temperature.tau_s))
     acc, sat_a, err_a = corrupt(f, accel_spec, fs, rng_for(seed, "accel", agent.id),
                                 temperature_delta=temp)
     gyr, sat_g, err_g = corrupt(w, gyro_spec, fs, rng_for(seed, "gyro", agent.id),
@@ -286,7 +315,8 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
     rec = ImuRecord(agent=agent.id, device=f"{agent.id}/imu", grade=cfg.grade, rate_hz=fs,
                     frame=cfg.axes, time=t, accel=acc, gyro=gyr, mag=mag,
                     saturated=sat_a | sat_g,
-                    errors={"gyro": err_g.as_dict(), "accel": err_a.as_dict(),
+                    errors={"condition": errors, "gyro": err_g.as_dict(),
+                            "accel": err_a.as_dict(),
                             "gyro_spec": gyro_spec.model_dump(),
                             "accel_spec": accel_spec.model_dump()})
     return rec, kin, mount

@@ -111,10 +111,10 @@ class StrideTable:
     ``impact`` (K,) [m] heel pad / sole give at heel strike (0: a soft landing);
     ``toe_rocker`` / ``heel_rocker`` (K,) [s] heel-off to toe-off and heel strike to
     foot-flat (None: 0, lift off and land flat); ``heel_arm`` / ``toe_arm`` (3,) [m]
-    contact points from the IMU, foot frame; ``flex`` (K, 3) direction (unit rotation
-    vector, foot frame) in which the boot under the IMU turns over the ground contact
-    that begins with this swing's landing, zero for none (None: none; the angle is the
-    mount's, :mod:`.mount`).
+    contact points from the IMU, foot frame; ``flex`` (K, 3) rotation vector (foot
+    frame) in which the boot under the IMU turns over the ground contact that begins
+    with this swing's landing, its length the turn relative to walking, zero for none
+    (None: none; the angle of a unit vector is the mount's, :mod:`.mount`).
     """
 
     t0: np.ndarray

@@ -25,7 +25,7 @@ from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 __all__ = ["RouteError", "walkable_region", "Router", "fillet", "wall_ring", "polyline_length",
-           "resample"]
+           "resample", "dedupe"]
 
 
 class RouteError(ValueError):
@@ -95,7 +95,8 @@ def resample(p: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([np.interp(si, s, p[:, 0]), np.interp(si, s, p[:, 1])]), si
 
 
-def _dedupe(p: np.ndarray, tol: float = 1e-6) -> np.ndarray:
+def dedupe(p: np.ndarray, tol: float = 1e-6) -> np.ndarray:
+    """Polyline ``p`` (N, 2) without consecutive repeated points."""
     keep = np.concatenate([[True], np.linalg.norm(np.diff(p, axis=0), axis=1) > tol])
     return p[keep]
 
@@ -107,7 +108,7 @@ def fillet(p: np.ndarray, radius: float, *, max_turn_deg: float = 120.0, arc_ste
     Corners turning more than ``max_turn_deg`` are kept sharp (people turn on the spot
     there); their indices in the returned polyline are listed.
     """
-    p = _dedupe(np.asarray(p, float))
+    p = dedupe(np.asarray(p, float))
     if len(p) < 3 or radius <= 0:
         return p, []
     out = [p[0]]
@@ -136,7 +137,7 @@ def fillet(p: np.ndarray, radius: float, *, max_turn_deg: float = 120.0, arc_ste
         ang = a0 + np.linspace(0.0, turn, n)
         out.extend(centre + r * np.column_stack([np.cos(ang), np.sin(ang)]))
     out.append(p[-1])
-    return _dedupe(np.array(out)), sharp
+    return dedupe(np.array(out)), sharp
 
 
 def wall_ring(region: BaseGeometry, start: np.ndarray, hand: str) -> np.ndarray:
@@ -157,7 +158,7 @@ def wall_ring(region: BaseGeometry, start: np.ndarray, hand: str) -> np.ndarray:
     k = int(np.searchsorted(s, d, side="right"))  # ring vertices after the start point
     k = min(k, len(ring))
     after = np.vstack([ring[k:], ring[:k]])
-    return _dedupe(np.vstack([p0, after, p0]))
+    return dedupe(np.vstack([p0, after, p0]))
 
 
 def _part_at(region: BaseGeometry, point: np.ndarray) -> Polygon:
@@ -255,4 +256,4 @@ class Router:
             j = int(cand[np.nonzero(ok)[0].max()]) if ok.any() else i + 1
             out.append(path[j])
             i = j
-        return _dedupe(np.array(out))
+        return dedupe(np.array(out))

@@ -2,13 +2,18 @@
 
 Per axis, the measured value is::
 
-    y = sat(quant( (I + M) x + k_nl x|x| + b_on + b_gm(t) + b_rw(t) + k_T dT(t) [+ G f] + n ))
+    y = sat(quant( (I + M) x + k_nl x|x| + b_on + b_gm(t) + b_rw(t) + k_T dT(t)
+                   [+ G f + r v(t)] + n ))
 
 with ``M`` the scale-factor (diagonal) and cross-axis (off-diagonal) matrix, ``k_nl``
 the non-linearity, ``b_on``
 the turn-on bias, ``b_gm`` a first-order Gauss-Markov bias (bias instability),
 ``b_rw`` a bias random walk, ``k_T dT`` the thermal drift, ``G f`` the gyro's
-linear-acceleration sensitivity and ``n`` white noise of the stated density.
+linear-acceleration sensitivity, ``r sqrt(v(t))`` its vibration rectification (``v``:
+the rms [g] of the specific force above 10 Hz over the last second, :func:`vibration_rms`;
+the square root because the heading drift of the same ZUPT INS on the real walks (0.5 g
+rms) and runs (0.9 g rms) grows so, ``benchmarks/bench_sim_realism.py``) and ``n`` white
+noise of the stated density.
 :func:`allan_model` gives the Allan deviation these processes have in theory; the
 tests compare it with :func:`allan_deviation` of simulated data.
 """
@@ -17,7 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
+from scipy.ndimage import uniform_filter1d
+from scipy.signal import butter, lfilter, sosfiltfilt
 
 from .imu_grades import AccelSpec, GyroSpec, MagSpec
 
@@ -78,6 +84,7 @@ class SensorErrors:
     thermal: np.ndarray           # (3,)  per kelvin
     g_sensitivity: np.ndarray     # (3, 3) gyro only (zeros for accel) [rad/s per m/s^2]
     nonlinearity: np.ndarray      # (3,) quadratic coefficient [1 / unit]
+    vibration: np.ndarray         # (3,) gyro bias at 1 g rms of vibration [rad/s]
 
     def as_dict(self) -> dict:
         return {k: np.asarray(v).round(9).tolist() for k, v in self.__dict__.items()}
@@ -91,25 +98,48 @@ def _si(spec: GyroSpec | AccelSpec) -> dict[str, float]:
                     thermal=spec.thermal_drift_dps_per_k * DEG, sf=spec.scale_factor_pct / 100,
                     mis=spec.misalignment_deg * DEG,
                     gsens=spec.g_sensitivity_dps_per_g * DEG / G0,
+                    vib=spec.vibration_bias_dps * DEG,
                     res=spec.resolution_dps * DEG, nl=spec.nonlinearity_pct / 100)
     return dict(range=spec.range_g * G0, noise=spec.noise_density_ug_rthz * 1e-6 * G0,
                 bi=spec.bias_instability_ug * 1e-6 * G0, tau=spec.bias_tau_s,
                 rw=spec.random_walk_ug_rts * 1e-6 * G0, on=spec.turn_on_bias_mg * 1e-3 * G0,
                 thermal=spec.thermal_drift_mg_per_k * 1e-3 * G0, sf=spec.scale_factor_pct / 100,
-                mis=spec.misalignment_deg * DEG, gsens=0.0, res=spec.resolution_mg * 1e-3 * G0,
-                nl=spec.nonlinearity_pct / 100)
+                mis=spec.misalignment_deg * DEG, gsens=0.0, vib=0.0,
+                res=spec.resolution_mg * 1e-3 * G0, nl=spec.nonlinearity_pct / 100)
 
 
 def draw_errors(spec: GyroSpec | AccelSpec, rng: np.random.Generator) -> SensorErrors:
-    """Draw the constant errors of one triad (turn-on bias, matrix, thermal, g-sens)."""
+    """Draw the constant errors of one triad (turn-on bias, matrix, thermal, g-sens,
+    vibration rectification; the last only when the spec has it, so that specs without
+    it draw exactly what they drew before it existed)."""
     p = _si(spec)
     matrix = np.eye(3) + np.diag(rng.normal(0.0, p["sf"], 3))
     off = rng.normal(0.0, p["mis"], (3, 3))
     np.fill_diagonal(off, 0.0)
-    return SensorErrors(turn_on_bias=rng.normal(0.0, p["on"], 3), matrix=matrix + off,
-                        thermal=rng.normal(0.0, p["thermal"], 3),
-                        g_sensitivity=rng.normal(0.0, p["gsens"], (3, 3)),
-                        nonlinearity=rng.normal(0.0, p["nl"], 3) / p["range"])
+    drawn = dict(turn_on_bias=rng.normal(0.0, p["on"], 3), matrix=matrix + off,
+                 thermal=rng.normal(0.0, p["thermal"], 3),
+                 g_sensitivity=rng.normal(0.0, p["gsens"], (3, 3)),
+                 nonlinearity=rng.normal(0.0, p["nl"], 3) / p["range"])
+    vib = rng.normal(0.0, p["vib"], 3) if p["vib"] > 0 else np.zeros(3)
+    return SensorErrors(**drawn, vibration=vib)
+
+
+#: Vibration is the specific force above this frequency [Hz], its rms taken over
+#: ``VIBRATION_WINDOW_S`` [s].
+VIBRATION_HZ = 10.0
+VIBRATION_WINDOW_S = 1.0
+
+
+def vibration_rms(specific_force: np.ndarray, fs: float) -> np.ndarray:
+    """(N,) rms [g] of the specific force (N, 3) [m/s^2] above ``VIBRATION_HZ`` over the
+    last ``VIBRATION_WINDOW_S`` (centred): impacts, the strap's ringing, running."""
+    f = np.asarray(specific_force, float)
+    if len(f) < 16 or fs <= 2.5 * VIBRATION_HZ:
+        return np.zeros(len(f))
+    sos = butter(2, VIBRATION_HZ, "highpass", fs=fs, output="sos")
+    hp = sosfiltfilt(sos, f, axis=0)
+    ms = uniform_filter1d(np.sum(hp * hp, axis=1), max(1, int(round(VIBRATION_WINDOW_S * fs))))
+    return np.sqrt(np.maximum(ms, 0.0)) / G0
 
 
 def gauss_markov(n: int, fs: float, sigma: float, tau: float, rng: np.random.Generator,
@@ -131,7 +161,7 @@ def corrupt(ideal: np.ndarray, spec: GyroSpec | AccelSpec, fs: float,
     """Measured (N, 3) readings from ideal ones, the per-sample saturation mask, the errors.
 
     ``temperature_delta`` (N,) [K] drives the thermal drift; ``specific_force`` (N, 3)
-    [m/s^2] drives the gyro g-sensitivity.
+    [m/s^2] drives the gyro g-sensitivity and vibration rectification.
     """
     p = _si(spec)
     n = len(ideal)
@@ -147,6 +177,8 @@ def corrupt(ideal: np.ndarray, spec: GyroSpec | AccelSpec, fs: float,
         y += np.asarray(temperature_delta, float)[:, None] * errors.thermal
     if specific_force is not None and np.any(errors.g_sensitivity):
         y += specific_force @ errors.g_sensitivity.T
+    if specific_force is not None and np.any(errors.vibration):
+        y += np.sqrt(vibration_rms(specific_force, fs))[:, None] * errors.vibration
     if p["noise"] > 0:
         y += rng.normal(0.0, p["noise"] * np.sqrt(fs), (n, 3))
     if p["res"] > 0:

@@ -19,13 +19,20 @@ Meaning of the fields (1-sigma unless said otherwise):
   ``nonlinearity_pct`` (of full scale): a quadratic, sign-keeping error
   ``k x |x| / range`` whose largest value within the range is that percentage.
 * ``g_sensitivity``: gyro bias per g of specific force (linear acceleration effect).
+* ``vibration_bias``: gyro bias under vibration (vibration rectification: what impacts
+  and the strap's ringing do to a MEMS gyro), at 1 g rms of the specific force above
+  10 Hz; it grows with the square root of that rms (fitted on the real walks and runs:
+  :mod:`.imu_errors`). Its direction is drawn per run and it vanishes at rest, so a
+  still start cannot calibrate it away.
 * ``range``: saturation; ``resolution``: quantisation step (0 = none).
 
 Where a datasheet is silent we state the assumption next to the number.
 """
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
 class _Spec(BaseModel):
@@ -46,6 +53,8 @@ class GyroSpec(_Spec):
     nonlinearity_pct: float = Field(0.0, ge=0, description="[% of full scale]")
     misalignment_deg: float = Field(0.1, ge=0, description="cross-axis [deg]")
     g_sensitivity_dps_per_g: float = Field(0.0, ge=0, description="[deg/s/g]")
+    vibration_bias_dps: float = Field(0.0, ge=0, description="bias at 1 g rms of vibration "
+                                      "above 10 Hz, growing with its square root [deg/s]")
     resolution_dps: float = Field(0.0, ge=0, description="quantisation step [deg/s]")
 
 
@@ -74,8 +83,30 @@ class MagSpec(_Spec):
     soft_iron_pct: float = Field(2.0, ge=0, description="residual soft-iron gain/coupling [%]")
 
 
+class WornProfile(_Spec):
+    """How a unit strapped on a firefighter's boot differs from its datasheet.
+
+    ``gyro`` / ``accel``: :class:`GyroSpec` / :class:`AccelSpec` fields that change (the
+    rest stay the datasheet's); ``source``: where the numbers come from.
+    """
+
+    gyro: dict[str, float] = Field(default_factory=dict)
+    accel: dict[str, float] = Field(default_factory=dict)
+    source: str = ""
+
+    @model_validator(mode="after")
+    def _fields(self) -> "WornProfile":
+        GyroSpec(**self.gyro)
+        AccelSpec(**self.accel)
+        return self
+
+
 class ImuGrade(_Spec):
-    """A named IMU with its error specification and where the numbers come from."""
+    """A named IMU with its error specification and where the numbers come from.
+
+    ``gyro``, ``accel``, ``mag``: the datasheet; ``as_worn``: what changes on a boot in
+    the field (:data:`IMU_ERRORS`, :func:`error_specs`).
+    """
 
     name: str
     description: str = ""
@@ -83,6 +114,7 @@ class ImuGrade(_Spec):
     gyro: GyroSpec = GyroSpec()
     accel: AccelSpec = AccelSpec()
     mag: MagSpec = MagSpec()
+    as_worn: WornProfile = WornProfile()
 
 
 GRADES: dict[str, ImuGrade] = {g.name: g for g in [
@@ -103,6 +135,10 @@ GRADES: dict[str, ImuGrade] = {g.name: g for g in [
                         bias_tau_s=60.0, random_walk_ug_rts=0.0, turn_on_bias_mg=3.0,
                         thermal_drift_mg_per_k=0.1, scale_factor_pct=0.1, nonlinearity_pct=0.5,
                         misalignment_deg=0.1, resolution_mg=0.0),
+        as_worn=WornProfile(
+            gyro={"vibration_bias_dps": 0.31},
+            source='the MicroStrain figures measured on the real recordings (a MEMS IMU of '
+                   'the same class and price)'),
     ),
     ImuGrade(
         name='microstrain_3dm_gx5_25',
@@ -121,6 +157,15 @@ GRADES: dict[str, ImuGrade] = {g.name: g for g in [
                         bias_tau_s=100.0, random_walk_ug_rts=0.0, turn_on_bias_mg=2.0,
                         thermal_drift_mg_per_k=0.05, scale_factor_pct=0.05,
                         nonlinearity_pct=0.02, misalignment_deg=0.05, resolution_mg=0.0),
+        as_worn=WornProfile(
+            gyro={"vibration_bias_dps": 0.31},
+            accel={"noise_density_ug_rthz": 80.0},
+            source='measured on the real recordings in ../shared/data '
+                   '(benchmarks/bench_sim_realism.py): the heading drift of the same ZUPT INS '
+                   'on the walks, with and without a still-start gyro calibration, and on '
+                   'the runs (vibration rectification: a still start does not remove it, and '
+                   'it grows from walking to running); accelerometer noise standing still '
+                   '(70-100 ug/rtHz)'),
     ),
     ImuGrade(
         name='lsm6ds33',
@@ -140,6 +185,11 @@ GRADES: dict[str, ImuGrade] = {g.name: g for g in [
                         bias_tau_s=40.0, random_walk_ug_rts=0.0, turn_on_bias_mg=40.0,
                         thermal_drift_mg_per_k=0.5, scale_factor_pct=1.5, nonlinearity_pct=0.5,
                         misalignment_deg=1.0, resolution_mg=0.244),
+        as_worn=WornProfile(
+            gyro={"vibration_bias_dps": 0.62},
+            source='datasheet zero-rate level as the turn-on bias (no factory trim); '
+                   'vibration rectification twice the MicroStrain figure (consumer MEMS, '
+                   'assumed)'),
     ),
     ImuGrade(
         name='xsens_mtx',
@@ -158,6 +208,10 @@ GRADES: dict[str, ImuGrade] = {g.name: g for g in [
                         bias_tau_s=60.0, random_walk_ug_rts=0.0, turn_on_bias_mg=2.0,
                         thermal_drift_mg_per_k=0.3, scale_factor_pct=0.5, nonlinearity_pct=0.2,
                         misalignment_deg=0.3, resolution_mg=0.0),
+        as_worn=WornProfile(
+            gyro={"vibration_bias_dps": 0.62},
+            source='datasheet bias stability as the turn-on bias; vibration rectification '
+                   'twice the MicroStrain figure (2007 MEMS, assumed)'),
     ),
     ImuGrade(
         name='xsens_mtw',
@@ -174,6 +228,10 @@ GRADES: dict[str, ImuGrade] = {g.name: g for g in [
                         bias_tau_s=60.0, random_walk_ug_rts=0.0, turn_on_bias_mg=5.0,
                         thermal_drift_mg_per_k=0.1, scale_factor_pct=0.2, nonlinearity_pct=0.2,
                         misalignment_deg=0.2, resolution_mg=0.0),
+        as_worn=WornProfile(
+            gyro={"vibration_bias_dps": 0.31},
+            source='the MicroStrain figures measured on the real recordings (a MEMS IMU of '
+                   'the same class)'),
     ),
     ImuGrade(
         name='consumer',
@@ -191,6 +249,10 @@ GRADES: dict[str, ImuGrade] = {g.name: g for g in [
                         bias_tau_s=30.0, random_walk_ug_rts=0.0, turn_on_bias_mg=40.0,
                         thermal_drift_mg_per_k=0.5, scale_factor_pct=2.0, nonlinearity_pct=0.5,
                         misalignment_deg=1.0, resolution_mg=0.49),
+        as_worn=WornProfile(
+            gyro={"vibration_bias_dps": 0.62},
+            source='datasheet zero-rate offset as the turn-on bias (factory trim only); '
+                   'vibration rectification twice the MicroStrain figure (assumed)'),
     ),
     ImuGrade(
         name='tactical',
@@ -208,6 +270,10 @@ GRADES: dict[str, ImuGrade] = {g.name: g for g in [
                         bias_tau_s=200.0, random_walk_ug_rts=0.0, turn_on_bias_mg=0.5,
                         thermal_drift_mg_per_k=0.01, scale_factor_pct=0.02,
                         nonlinearity_pct=0.01, misalignment_deg=0.01, resolution_mg=0.0),
+        as_worn=WornProfile(
+            gyro={"vibration_bias_dps": 0.02},
+            source='vibration rectification from the ADIS16495 datasheet class (0.02 deg/s '
+                   'per g rms, assumed); the datasheet otherwise'),
     ),
 ]}
 
@@ -223,3 +289,43 @@ def get_grade(name: str) -> ImuGrade:
     except KeyError:
         known = ", ".join(sorted([*GRADES, *ALIASES]))
         raise ValueError(f"unknown IMU grade '{name}'; known grades: {known}") from None
+
+
+#: The sensor errors a scenario can ask for (``sensors.imu.errors``):
+#:
+#: * ``as_worn`` (default): the unit on a boot in the field, uncalibrated: the datasheet
+#:   with the grade's :class:`WornProfile` on top;
+#: * ``calibrated``: as worn, with the gyro turn-on bias replaced by what a still start
+#:   of a few seconds leaves (:data:`STILL_START_RESIDUAL_DPS`); the errors that only
+#:   appear in motion (vibration, scale factor, warm-up) stay;
+#: * ``datasheet``: the datasheet numbers alone (a unit on a lab bench);
+#: * ``ideal``: no errors at all (range kept: a foot can still saturate it).
+IMU_ERRORS = ("as_worn", "calibrated", "datasheet", "ideal")
+ImuErrors = Literal["as_worn", "calibrated", "datasheet", "ideal"]
+
+#: Gyro bias left by a still-start calibration [deg/s, 1 sigma per axis]: the real
+#: recordings' still-start gyro means vary by about this much between trials of one unit
+#: (the foot settles and shifts its weight while "standing still").
+STILL_START_RESIDUAL_DPS = 0.05
+
+
+def error_specs(grade: ImuGrade, errors: str = "as_worn", *, gyro: dict | None = None,
+                accel: dict | None = None, mag: dict | None = None
+                ) -> tuple[GyroSpec, AccelSpec, MagSpec]:
+    """The gyro, accelerometer and magnetometer specs of ``grade`` under ``errors``
+    (one of :data:`IMU_ERRORS`), with a scenario's field overrides on top."""
+    if errors not in IMU_ERRORS:
+        raise ValueError(f"unknown IMU errors {errors!r}; one of {', '.join(IMU_ERRORS)}")
+    worn = errors in ("as_worn", "calibrated")
+    g = {**grade.gyro.model_dump(), **(grade.as_worn.gyro if worn else {}), **(gyro or {})}
+    a = {**grade.accel.model_dump(), **(grade.as_worn.accel if worn else {}), **(accel or {})}
+    m = {**grade.mag.model_dump(), **(mag or {})}
+    if errors == "calibrated":
+        g["turn_on_bias_dps"] = STILL_START_RESIDUAL_DPS
+    if errors == "ideal":
+        g = {k: (v if k == "range_dps" else (100.0 if k == "bias_tau_s" else 0.0))
+             for k, v in g.items()}
+        a = {k: (v if k == "range_g" else (100.0 if k == "bias_tau_s" else 0.0))
+             for k, v in a.items()}
+        m = {k: (v if k == "range_ut" else 0.0) for k, v in m.items()}
+    return GyroSpec(**g), AccelSpec(**a), MagSpec(**m)

@@ -33,6 +33,7 @@ and where they come from: :class:`MountConfig`, ``docs/scenarios.md``.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,7 +42,7 @@ from scipy.linalg import expm
 from scipy.signal import butter, lfilter, sosfilt
 from scipy.spatial.transform import Rotation
 
-from .gait import FootKinematics, euler_matrix
+from .gait import FootKinematics, StrideTable, euler_matrix
 from .profiles import progress
 
 G0 = 9.80665
@@ -69,13 +70,17 @@ class MountConfig(BaseModel):
     rocking_deg_per_g: float = Field(1.0, ge=0, le=10, description="static tilt of the IMU "
                                      "on its strap per g of sideways / fore-aft specific "
                                      "force [deg/g]")
-    flex_deg: float = Field(10.0, ge=0, le=20, description="rotation of the upper under "
+    flex_deg: float = Field(12.0, ge=0, le=20, description="rotation of the upper under "
                             "the IMU relative to the sole over one ground contact [deg]")
     shear_mm: float = Field(2.5, ge=0, le=20, description="fore-aft shift of the upper over "
                             "the outsole under the braking and propulsive ground force "
                             "(peak) [mm]")
     sway_dps: float = Field(0.3, ge=0, le=5, description="rms angular rate of postural "
                             "sway seen by the IMU [deg/s], 0.2-2 Hz")
+    rock_deg: float = Field(4.2, ge=0, le=20, description="on all fours: how far the shoe, "
+                            "lying on its top, rocks over one contact as the weight shifts "
+                            "[deg] (the real crawl trials; not the boot's flex, which needs "
+                            "the ankle)")
 
 
 @dataclass
@@ -92,6 +97,19 @@ class MountMotion:
     u_ddot: np.ndarray
     rho: np.ndarray
     rho_dot: np.ndarray
+
+
+def rocking_on_all_fours(table: StrideTable, config: MountConfig) -> StrideTable:
+    """``table`` with the contacts that follow crawl swings turning by ``config.rock_deg``
+    instead of the boot's ``flex_deg`` (their flex vectors rescaled)."""
+    if table.flex is None or config.flex_deg == 0:
+        return table
+    crawl = np.array([m == "crawl" for m in table.motion], bool)
+    if not crawl.any():
+        return table
+    flex = np.array(table.flex, float)
+    flex[crawl] *= config.rock_deg / config.flex_deg
+    return dataclasses.replace(table, flex=flex)
 
 
 def _oscillator(drive: np.ndarray, fs: float, w: float, zeta: float

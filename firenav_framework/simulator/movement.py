@@ -18,10 +18,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from .gait import DOWN, LEVEL, UP, StrideTable
-from .gaits import (FLEX_DIRECTION_RIGHT, GAITS, KNEEL_IMU_HEIGHT, KNEEL_PITCH,
-                    POSTURE_CHANGE_S, STAIR_STANCE_S, Gait, Person)
+from .gaits import (CRAWL_FLEX_DIRECTION_RIGHT, FLEX_DIRECTION_RIGHT, GAITS, POSTURE_CHANGE_S,
+                    POSTURE_GAIT, POSTURE_IMU_HEIGHT, POSTURE_PITCH, STAIR_STANCE_S, Gait,
+                    Person)
 from .geometry import fillet, resample
 
 #: Largest heading change of one stride of the instrumented foot (two steps) [rad];
@@ -29,6 +31,10 @@ from .geometry import fillet, resample
 MAX_TURN_PER_STRIDE = np.radians(60.0)
 #: Corner radius people walk [m].
 CORNER_RADIUS = 0.35
+#: Sweeping the floor ahead with a foot: how far it slides out to the side [m] and how
+#: long each slide out or back takes [s].
+SWEEP_M = 0.35
+SWEEP_SWING_S = 0.6
 
 
 @dataclass
@@ -37,7 +43,8 @@ class Leg:
 
     ``kind``: ``"move"`` (``path`` (M, 2) body route starting at the body position,
     walked with ``gait``, facing backwards if ``backwards``), ``"pause"`` (``duration``
-    [s] in ``posture``), ``"turn"`` (on the spot to ``heading`` [rad]) or ``"stairs"``
+    [s] in ``posture``, None: as the agent is), ``"sweep"`` (``duration`` [s] sweeping
+    the floor with the foot), ``"turn"`` (on the spot to ``heading`` [rad]) or ``"stairs"``
     (``stair`` walked up or down, descending ``backwards`` if set). A pause may mark a
     ``checkpoint`` (its name; the true position is recorded). ``deploy`` lists
     tags (id, true position (3,)) attached during a pause. ``where`` is the plan path
@@ -50,7 +57,7 @@ class Leg:
     gait: str = "walk"
     backwards: bool = False
     duration: float = 0.0
-    posture: str = "stand"
+    posture: str | None = None
     stair: object = None
     up: bool = True
     deploy: list[tuple[str, np.ndarray]] = field(default_factory=list)
@@ -141,7 +148,7 @@ class Walker:
         return self.side * np.radians(self.person.toe_out_deg)
 
     def _imu_height(self, posture: str) -> float:
-        return KNEEL_IMU_HEIGHT if posture == "kneel" else self.person.imu_height
+        return POSTURE_IMU_HEIGHT.get(posture, self.person.imu_height)
 
     def _foot_point(self, xy: np.ndarray, heading: float, z_ground: float,
                     posture: str = "stand") -> np.ndarray:
@@ -164,8 +171,13 @@ class Walker:
         # mirrored between the feet (self.side is -1 for the right foot)
         scale = (t1 - t0) / gait.swing_s if self.rockers else 0.0
         cap = 0.4 * (t1 - t0)
-        kneeling = self.posture == "kneel" or gait.posture == "kneel" or motion == "posture"
-        flex = np.zeros(3) if kneeling else FLEX_DIRECTION_RIGHT * [-self.side, 1.0, -self.side]
+        mirror = np.array([-self.side, 1.0, -self.side])
+        if motion == "posture" or "kneel" in (self.posture, gait.posture):
+            flex = np.zeros(3)
+        elif "crawl" in (self.posture, gait.posture):
+            flex = CRAWL_FLEX_DIRECTION_RIGHT * mirror * gait.flex_scale
+        else:
+            flex = FLEX_DIRECTION_RIGHT * mirror * gait.flex_scale
         self.swings.append((t0, t1, self.foot_p.copy(), p1.copy(), self.foot_yaw, yaw1,
                             self.foot_pitch, pitch1, gait.clearance,
                             np.radians(gait.toe_off_deg), np.radians(gait.heel_strike_deg),
@@ -188,15 +200,18 @@ class Walker:
                 self.stairs(leg)
             elif leg.kind == "turn":
                 self.turn(leg.heading)
+            elif leg.kind == "sweep":
+                self.sweep(leg)
             else:  # pragma: no cover - the planner only makes these kinds
                 raise ValueError(f"unknown leg kind {leg.kind!r}")
 
     def set_posture(self, posture: str) -> None:
-        """Get down on the knees or stand up: one slow in-place swing of the foot."""
+        """Get down on the knees or on all fours, or stand up: one slow in-place swing of
+        the foot."""
         if posture == self.posture:
             return
         t0 = self.t + 0.3
-        pitch = KNEEL_PITCH if posture == "kneel" else 0.0
+        pitch = POSTURE_PITCH[posture]
         p1 = self.foot_p.copy()
         p1[2] = self.z_ground + self._imu_height(posture)
         g = Gait(clearance=0.03, toe_off_deg=0, heel_strike_deg=0, roll_deg=2, sway=0.0,
@@ -206,7 +221,7 @@ class Walker:
         self._knot(self.t, "posture")
 
     def pause(self, leg: Leg) -> None:
-        if leg.posture != self.posture:
+        if leg.posture is not None and leg.posture != self.posture:
             self.set_posture(leg.posture)
         t_start = self.t
         self._knot(t_start, "still")
@@ -220,6 +235,28 @@ class Walker:
             self.checkpoints.append(CheckpointRecord(
                 leg.checkpoint, t_start, self.t,
                 np.array([self.xy[0], self.xy[1], self.z_ground]), self.heading))
+
+    def sweep(self, leg: Leg) -> None:
+        """Stand and sweep the floor ahead with the instrumented foot for ``duration``:
+        the foot slides out to the side (``SWEEP_M``) and back, again and again, and ends
+        where it started. On the knees or on all fours it is a pause (the hands sweep)."""
+        if self.posture != "stand":
+            self.pause(leg)
+            return
+        t_start = self.t
+        self._knot(t_start, "sweep")
+        home = self.foot_p.copy()
+        left = np.array([-np.sin(self.heading), np.cos(self.heading), 0.0])
+        out = home + self.side * SWEEP_M * left          # to the side of the foot
+        g = Gait(clearance=0.02, toe_off_deg=5, heel_strike_deg=3, roll_deg=3, sway=0.0,
+                 impact_mm=0.5, toe_rocker_s=0.0, heel_rocker_s=0.0)
+        while self.t + 2 * (0.3 + SWEEP_SWING_S) <= t_start + max(leg.duration, 1.5):
+            for p1 in (out, home):
+                t0 = self.t + 0.3
+                self._swing(t0, t0 + SWEEP_SWING_S, p1, self.foot_yaw, self.foot_pitch, g,
+                            LEVEL, "sweep")
+        self.t = max(self.t, t_start + leg.duration)
+        self._knot(self.t, "sweep")
 
     def move(self, leg: Leg) -> None:
         gait = self._gait(leg.gait)
@@ -241,9 +278,17 @@ class Walker:
         facing = np.concatenate([[self.heading], facing])
         L = self._stride_length(gait)
         # Turning costs time as if it were distance: a turn of MAX_TURN_PER_STRIDE takes
-        # the nominal stride time of the gait, whoever walks it (partners stay together).
+        # the nominal stride time of the gait, whoever walks it (partners stay together);
+        # a curve of up to the gait's ``free_turn_deg`` per nominal stride (the facing
+        # smoothed over a stride) costs nothing.
         kappa = gait.stride / MAX_TURN_PER_STRIDE
-        q = s + kappa * np.concatenate([[0.0], np.cumsum(np.abs(np.diff(facing)))])
+        turning = np.abs(np.diff(facing))
+        if gait.free_turn_deg > 0:
+            along = uniform_filter1d(facing[1:], max(1, int(round(gait.stride / 0.05))),
+                                     mode="nearest")
+            free = np.radians(gait.free_turn_deg) / gait.stride
+            turning[1:] = np.maximum(np.abs(np.diff(along)) - free * np.diff(s[1:]), 0.0)
+        q = s + kappa * np.concatenate([[0.0], np.cumsum(turning)])
         total = q[-1]
         if total < 0.05:
             return
@@ -257,9 +302,9 @@ class Walker:
         dq = np.diff(np.concatenate([[0.0], qi]))
         period = dq / (gait.speed * self.person.speed_scale)
         swing = np.minimum(gait.swing_s * (1 + self.person.jitter * self.rng.standard_normal(n)),
-                           0.9 * period)
+                           period - gait.min_flat_s)
         swing = np.maximum(swing, 0.35)
-        stance = np.maximum(period - swing, 0.1)
+        stance = np.maximum(period - swing, gait.min_flat_s)
         z = np.full(n, self.z_ground)
         self._footfalls(xy, hi, z, stance, swing, np.full(n, LEVEL), gait, leg.gait)
 
@@ -269,7 +314,7 @@ class Walker:
         n = int(np.ceil(abs(delta) / MAX_TURN_PER_STRIDE))
         if n == 0:
             return
-        gait = self._gait("walk" if self.posture == "stand" else "crawl")
+        gait = self._gait(POSTURE_GAIT[self.posture])
         hi = self.heading + delta * np.arange(1, n + 1) / n
         swing = np.full(n, 0.6)
         self._footfalls(np.repeat(self.xy[None], n, 0), hi, np.full(n, self.z_ground),
@@ -281,7 +326,7 @@ class Walker:
     def _footfalls(self, xy: np.ndarray, heading: np.ndarray, z: np.ndarray,
                    stance: np.ndarray, swing: np.ndarray, vstyle: np.ndarray, gait: Gait,
                    motion: str) -> None:
-        pitch = KNEEL_PITCH if self.posture == "kneel" else 0.0
+        pitch = POSTURE_PITCH[self.posture]
         jitter = np.radians(self.person.heading_jitter_deg) * self.rng.standard_normal(len(xy))
         for i in range(len(xy)):
             t0 = self.t + stance[i]

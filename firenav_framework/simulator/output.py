@@ -8,7 +8,8 @@ The files (specified in ``docs/formats/simulation-output.md``):
   per line in time order; the ``recording`` source replays the whole run from it;
 * ``truth.csv``: the body ground truth per agent at the truth rate;
 * ``truth.json``: what does not move or is drawn once: tag, breadcrumb and anchor
-  positions, checkpoints, the people and the IMU errors drawn for this seed;
+  positions (and what became of the breadcrumbs), checkpoints, the people, the IMU
+  errors and radio path loss drawn for this seed, how the world differs from the plan;
 * ``foot_<agent>.csv`` (``foot_truth=True``): the instrumented foot at every IMU
   sample (position, velocity, attitude, stance);
 * ``scenario.yaml``: the scenario as run.
@@ -27,6 +28,7 @@ from ..messages import (BreadcrumbDrop, Message, Range, RssiReading, TagDeployme
                         TagDetection)
 from ..formats.imu_csv import write_imu_csv
 from .result import SimulationResult
+from .world import describe
 
 FORMAT = "firenav-sim-streams"
 VERSION = 1
@@ -141,6 +143,9 @@ def _write_static_truth(result: SimulationResult, path: Path) -> Path:
         "scenario": result.scenario.name, "seed": result.seed, "t_end": result.t_end,
         "building": str(result.scenario.building_path.name),
         "anchors": result.anchors, "tags": result.tags, "breadcrumbs": result.breadcrumbs,
+        "radio": result.radio,
+        "world": None if result.world is result.building else describe(result.world,
+                                                                        result.building),
         "checkpoints": {a: [{"name": c.name, "t": c.t, "t_start": c.t_start, "t_end": c.t_end,
                              "position": c.position, "heading": c.heading}
                             for c in tr.checkpoints] for a, tr in result.truth.items()},

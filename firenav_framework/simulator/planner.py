@@ -24,9 +24,11 @@ scenario file.
 from __future__ import annotations
 
 import numpy as np
-from shapely.geometry import Point
+import shapely
+from shapely.geometry import LineString, Point
 
-from .geometry import RouteError, Router, polyline_length, walkable_region, wall_ring
+from .geometry import (RouteError, Router, dedupe, polyline_length, resample, walkable_region,
+                       wall_ring)
 from .movement import Leg
 from .scenario import (AgentSpec, CompartmentalSearch, Scenario, Search, Stairs, Step, Stops,
                        Target, Turn, Walk)
@@ -115,8 +117,10 @@ class Planner:
         return _State(xy, st.floor, np.radians(st.heading_deg or 0.0))
 
     # -- plans ----------------------------------------------------------------------
-    def plan(self, agent: AgentSpec, steps: tuple[Step, ...], where: tuple
-             ) -> tuple[_State, list[Leg]]:
+    def plan(self, agent: AgentSpec, steps: tuple[Step, ...], where: tuple,
+             rng: np.random.Generator | None = None) -> tuple[_State, list[Leg]]:
+        """The agent's start and legs; ``rng`` draws its deviations (searches)."""
+        self.agent_rng = rng if rng is not None else self.rng
         state = self.start_state(agent, where)
         start = _State(state.xy.copy(), state.floor, state.heading)
         rfid = agent.sensors.rfid
@@ -273,20 +277,78 @@ class Planner:
         self._change_floor(spec.to_floor, st, legs, deploy, "walk", spec.backwards)
 
     def _search(self, spec: Search, st: _State, legs: list[Leg], deploy, where: tuple) -> None:
-        region = self.region(st.floor, spec.offset_m, spec.rooms, spec.closed_doors)
+        dev = spec.deviate
+        closed = list(spec.closed_doors)
+        if dev is not None and dev.skip_rooms > 0:
+            closed += self._skipped_doors(st, dev.skip_rooms)
+        region = self.region(st.floor, spec.offset_m, spec.rooms, closed)
         try:
             ring = wall_ring(region, st.xy, spec.hand)
         except RouteError as exc:
             raise self.sc.problem(where, str(exc)) from None
         one = polyline_length(ring)
         total = one * spec.laps if spec.length_m is None else min(spec.length_m, one * spec.laps)
+        if dev is not None:
+            total *= dev.coverage
         laps = int(np.ceil(total / one))
         loop = np.vstack([ring] + [ring[1:]] * (laps - 1))
         loop = _cut(loop, total)
+        if dev is not None:
+            loop = _backtracks(_shortcuts(loop, region, dev.leave_wall, self.agent_rng),
+                               dev, self.agent_rng)
         approach = self.router(st.floor).route(st.xy, loop[0])
         path = np.vstack([approach, loop[1:]])
-        self._move(path, st, legs, spec.gait, False, spec.stops, deploy,
-                   kneel_at_doors=spec.kneel_at_doors_s)
+        for piece, gait in self._gaits_along(path, st.floor, spec.gait, dev):
+            self._move(piece, st, legs, gait, False, spec.stops, deploy,
+                       kneel_at_doors=spec.kneel_at_doors_s, deviate=dev)
+
+    def _skipped_doors(self, st: _State, share: float) -> list[str]:
+        """Doors of the rooms a search leaves out (each room with probability ``share``;
+        never a corridor or the room the search starts in)."""
+        floor = self.b.floor(st.floor)
+        here = int(floor.room_of(st.xy[None])[0])
+        gaps = floor.doors + floor.openings
+        out: list[str] = []
+        for i, room in enumerate(floor.rooms):
+            if i == here or room.use in ("corridor", "hall", "stairwell"):
+                continue
+            if self.agent_rng.uniform() >= share:
+                continue
+            for d in gaps:
+                sides = floor.room_of(np.array([d.center + 0.6 * d.axis, d.center - 0.6 * d.axis]))
+                if i in sides:
+                    out.append(d.id)
+        return out
+
+    def _gaits_along(self, path: np.ndarray, floor_index: int, gait: str, dev
+                     ) -> list[tuple[np.ndarray, str]]:
+        """Cut ``path`` where the gait changes: corridor stretches of over 5 m run
+        (``run_in_corridors``), random 3-8 m pieces crawled (``crawl_share``)."""
+        if dev is None or (not dev.run_in_corridors and dev.crawl_share == 0):
+            return [(path, gait)]
+        dense, s = resample(path, 0.25)
+        label = np.full(len(s), gait, dtype=object)
+        if dev.run_in_corridors:
+            floor = self.b.floor(floor_index)
+            rooms = floor.room_of(dense)
+            corridor = np.array([r >= 0 and floor.rooms[r].use == "corridor" for r in rooms])
+            for a, b in zip(*_runs(corridor)):
+                if s[b - 1] - s[a] > 5.0:
+                    label[a:b] = "run"
+        crawled, total = 0.0, s[-1] * dev.crawl_share
+        for _ in range(50):
+            if crawled >= total:
+                break
+            length = self.agent_rng.uniform(3.0, 8.0)
+            a = self.agent_rng.uniform(0.0, max(s[-1] - length, 0.0))
+            m = (s >= a) & (s <= a + length) & (label == gait)
+            label[m] = "crawl"
+            crawled += float(m.sum()) * 0.25
+        edges = np.flatnonzero(label[1:] != label[:-1]) + 1
+        cut = [float(s[e]) for e in edges]
+        pieces = _split(path, cut)
+        names = [label[0]] + [label[e] for e in edges]
+        return [(p, g) for p, g in zip(pieces, names) if polyline_length(p) > 0.05]
 
     def _compartmental(self, spec: CompartmentalSearch, st: _State, legs: list[Leg], deploy,
                        where: tuple) -> None:
@@ -337,7 +399,7 @@ class Planner:
 
     # -- moves -----------------------------------------------------------------------
     def _move(self, path: np.ndarray, st: _State, legs: list[Leg], gait: str, backwards: bool,
-              stops: Stops | None, deploy, kneel_at_doors: float = 0.0) -> None:
+              stops: Stops | None, deploy, kneel_at_doors: float = 0.0, deviate=None) -> None:
         path = np.asarray(path, float)
         if np.linalg.norm(path[0] - st.xy) > 1e-6:
             path = np.vstack([st.xy, path])
@@ -363,9 +425,17 @@ class Planner:
             total = polyline_length(path)
             s = stops.every_m * self.rng.uniform(0.5, 1.5)
             while s < total - 1.0:
+                kneel = stops.kneel_prob > 0 and self.rng.uniform() < stops.kneel_prob
                 cuts.append((s, Leg("pause", st.floor, duration=float(
-                    self.rng.uniform(*stops.duration_s)))))
+                    self.rng.uniform(*stops.duration_s)), posture="kneel" if kneel else None)))
                 s += stops.every_m * self.rng.uniform(0.5, 1.5)
+        if deviate is not None and deviate.sweep_every_m is not None:
+            total = polyline_length(path)
+            s = deviate.sweep_every_m * self.agent_rng.uniform(0.5, 1.5)
+            while s < total - 0.5:
+                cuts.append((s, Leg("sweep", st.floor,
+                                    duration=float(self.agent_rng.uniform(*deviate.sweep_s)))))
+                s += deviate.sweep_every_m * self.agent_rng.uniform(0.5, 1.5)
         cuts.sort(key=lambda c: c[0])
         pieces = _split(path, [c[0] for c in cuts])
         for i, piece in enumerate(pieces):
@@ -382,6 +452,63 @@ class Planner:
         got = self.tags.attach(feature, position)
         if got is not None:
             legs.append(Leg("pause", st.floor, duration=deploy.pause_s, deploy=[got]))
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
+def _shortcuts(loop: np.ndarray, region, chance: float, rng: np.random.Generator
+               ) -> np.ndarray:
+    """Leave the wall now and then: every 4 m, with ``chance``, replace the next 3-8 m of
+    ``loop`` by a straight line inside ``region`` when that is at least 25 % shorter."""
+    if chance <= 0:
+        return loop
+    out = [loop[:1]]
+    seg = np.linalg.norm(np.diff(loop, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+
+    def at(d: float) -> np.ndarray:
+        return np.array([np.interp(d, s, loop[:, 0]), np.interp(d, s, loop[:, 1])])
+    d = 0.0
+    while d < s[-1]:
+        nxt = min(d + 4.0, s[-1])
+        if rng.uniform() < chance and d + 3.0 < s[-1]:
+            ahead = min(d + rng.uniform(3.0, 8.0), s[-1])
+            a, b = at(d), at(ahead)
+            if (np.linalg.norm(b - a) < 0.75 * (ahead - d)
+                    and shapely.covers(region, LineString([a, b]))):
+                out.append(np.array([a, b]))
+                d = ahead
+                continue
+        inner = (s > d) & (s < nxt)
+        out.append(np.vstack([at(d)[None], loop[inner], at(nxt)[None]]))
+        d = nxt
+    return dedupe(np.vstack(out))
+
+
+def _backtracks(loop: np.ndarray, dev, rng: np.random.Generator) -> np.ndarray:
+    """Go back the way one came (``backtrack_m``) and on again, about every
+    ``backtrack_every_m`` along ``loop``."""
+    if dev.backtrack_every_m is None:
+        return loop
+    seg = np.linalg.norm(np.diff(loop, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    marks = []
+    d = dev.backtrack_every_m * rng.uniform(0.5, 1.5)
+    while d < s[-1] - 1.0:
+        marks.append((d, min(rng.uniform(*dev.backtrack_m), d)))
+        d += dev.backtrack_every_m * rng.uniform(0.5, 1.5)
+    if not marks:
+        return loop
+    pieces = _split(loop, [m[0] for m in marks])
+    out = [pieces[0]]
+    for (d, back), piece in zip(marks, pieces[1:]):
+        done = np.vstack(out)
+        ret = _cut(done[::-1], back)             # the last ``back`` metres, walked back
+        out += [ret[1:], ret[::-1][1:], piece[1:]]
+    return dedupe(np.vstack(out))
 
 
 def _line(p: np.ndarray):

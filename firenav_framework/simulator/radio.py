@@ -34,8 +34,9 @@ class Node:
     """A radio node: fixed (base station, breadcrumb) or worn by a firefighter.
 
     Fixed nodes have ``position`` (3,) and ``floor``; worn ones ``agent`` and a track
-    function giving (positions (N, 3), floors (N,), headings (N,)) at times. ``t_on``:
-    when it starts to exist (a breadcrumb's drop time).
+    function giving (positions (N, 3), floors (N,), headings (N,)) at times (a kicked
+    breadcrumb has one too). ``t_on`` / ``t_off``: when it starts and stops transmitting
+    and receiving (a breadcrumb's drop time; a dud, burned or lost one's end).
     """
 
     id: str
@@ -44,6 +45,7 @@ class Node:
     agent: str = ""
     t_on: float = 0.0
     track: object = None
+    t_off: float = np.inf
 
     @property
     def mobile(self) -> bool:
@@ -55,6 +57,25 @@ class Node:
         n = len(t)
         return (np.repeat(self.position[None], n, 0), np.full(n, self.floor),
                 np.full(n, np.nan))
+
+
+#: Ranges of the path-loss parameters a ``draw: true`` radio takes per building and seed
+#: (uniform): indoor 2.4 GHz measurements put the exponent at 1.6-3.5 (corridors low,
+#: furnished offices high), a wall at 2-12 dB (plasterboard to brick and concrete), a
+#: floor slab at 10-30 dB, the shadowing spread at 3-9 dB; devices differ by a few dB at
+#: 1 m.
+RADIO_RANGES = {"exponent": (2.0, 3.6), "wall_db": (2.0, 9.0), "floor_db": (10.0, 25.0),
+                "shadowing_db": (3.0, 8.0), "fading_db": (1.5, 4.0), "rssi_1m_dbm": (-4.0, 4.0)}
+
+
+def drawn_radio(cfg: Radio, rng: np.random.Generator) -> Radio:
+    """``cfg`` with its path loss drawn from :data:`RADIO_RANGES` (the RSSI at 1 m as an
+    offset from the given value); ``cfg`` itself when it does not ask (``draw``)."""
+    if not cfg.draw:
+        return cfg
+    upd = {k: float(rng.uniform(*r)) for k, r in RADIO_RANGES.items()}
+    upd["rssi_1m_dbm"] += cfg.rssi_1m_dbm
+    return cfg.model_copy(update=upd)
 
 
 class ShadowField:
@@ -106,12 +127,14 @@ class LinkModel:
         return self._shadow[node_id]
 
     def walls_between(self, pa: np.ndarray, fa: np.ndarray, pb: np.ndarray) -> np.ndarray:
-        """Walls crossed (N,) by the lines pa->pb (N, 2), counted on floor ``fa``."""
+        """Walls crossed (N,) by the lines pa->pb (N, 2), counted on floor ``fa``
+        (furniture edges do not count)."""
         out = np.zeros(len(pa), int)
         for f in np.unique(fa):
             m = fa == f
             floor = self.b.floor(int(f))
-            move, _ = floor.wall_index.all_hits(pa[m], pb[m])
+            move, seg = floor.wall_index.all_hits(pa[m], pb[m])
+            move = move[~floor.wall_is_obstacle[seg]]     # walls, not furniture
             out[np.flatnonzero(m)] = np.bincount(move, minlength=int(m.sum()))
         return out
 
@@ -241,11 +264,11 @@ def packet_readings(model: LinkModel, nodes: list[Node], t_end: float,
     out = []
     phase = {n.id: rng.uniform(0, period) for n in nodes}
     for a in nodes:
-        ta = np.arange(max(a.t_on, 0.0) + phase[a.id], t_end, period)
+        ta = np.arange(max(a.t_on, 0.0) + phase[a.id], min(t_end, a.t_off), period)
         for b in nodes:
             if b is a:
                 continue
-            t = ta[ta >= b.t_on]
+            t = ta[(ta >= b.t_on) & (ta < b.t_off)]
             if not t.size:
                 continue
             rssi, ok = model.sample(t, a, b, rng)

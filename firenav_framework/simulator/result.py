@@ -81,7 +81,12 @@ class SimulationResult:
     (TagDetection), ``tags`` (TagDeployment), ``truth`` (GroundTruth). IMU data stay as
     arrays in ``imu`` and become ImuBlocks on demand. ``tags``, ``breadcrumbs`` and
     ``anchors`` hold the true positions of fixed things; ``extra`` per-message truth
-    (e.g. the true range of each UWB measurement).
+    (e.g. the true range of each UWB measurement). ``building`` is the plan the pipeline
+    is given, ``world`` the building as it really is (furniture, the plan's errors:
+    :mod:`.world`), where the people walked and every truth was computed; the same object
+    when the scenario has no ``world``. ``radio``: the path-loss parameters the radio
+    links really had (drawn per building and seed when the scenario asks: never given to
+    a pipeline).
     """
 
     scenario: Any
@@ -95,6 +100,12 @@ class SimulationResult:
     breadcrumbs: dict[str, dict[str, Any]] = field(default_factory=dict)
     anchors: dict[str, dict[str, Any]] = field(default_factory=dict)
     extra: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
+    world: Any = None
+    radio: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.world is None:
+            self.world = self.building
 
     @property
     def agents(self) -> list[str]:

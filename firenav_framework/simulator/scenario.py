@@ -29,11 +29,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
+                      model_validator)
 
 from ..yaml_locations import ConfigError, LocatedDocument, Problem, load, loads
 from .gaits import Gait, Person
-from .imu_grades import AccelSpec, GyroSpec, MagSpec, get_grade
+from .imu_grades import AccelSpec, GyroSpec, ImuErrors, MagSpec, get_grade
 from .mount import MountConfig
 
 SCENARIO_DIR = Path(__file__).with_name("scenarios")
@@ -105,6 +106,10 @@ class Radio(_Model):
     packet_rate_hz: float = Field(1.0, gt=0, le=50, description="packets per node per second")
     base_station: str | None = Field("base", description="building anchor id of the base "
                                      "station (root of the breadcrumb chain), or null")
+    draw: bool = Field(False, description="draw the RSSI at 1 m, exponent, wall and floor "
+                       "loss, shadowing and fading per building and seed (ranges: "
+                       "simulator/radio.py RADIO_RANGES) instead of the values above, so "
+                       "that no estimator can be tuned to the simulator's")
 
 
 class AnchorSpec(_Model):
@@ -117,12 +122,114 @@ class AnchorSpec(_Model):
     kind: Literal["uwb", "base_station"] = "uwb"
 
 
+# -- the true world --------------------------------------------------------------------
+
+class WallPiece(_Model):
+    """``remove_wall``: the plan draws a wall (here, ``length_m`` of it centred on the
+    point nearest to ``at``) that the real building does not have."""
+
+    at: XY
+    length_m: float = Field(1.0, gt=0.1, le=20)
+
+
+class NewWall(_Model):
+    """``add_wall``: a wall (partition) the plan does not show, ``from`` -> ``to``."""
+
+    start: XY = Field(alias="from")
+    end: XY = Field(alias="to")
+
+
+class DoorShift(_Model):
+    """``move_door``: the door is ``by_m`` [m] along its wall from where the plan has it."""
+
+    door: str
+    by_m: float = Field(ge=-20, le=20)
+
+
+class RoomSplit(_Model):
+    """``split_room``: a partition across the room with a door in it. ``across: x``: the
+    partition runs in y at ``at`` of the room's x extent (0..1); ``y`` likewise."""
+
+    room: str
+    across: Literal["x", "y"] = "x"
+    at: float = Field(0.5, gt=0.1, lt=0.9)
+    door_at: float = Field(0.5, ge=0.1, le=0.9, description="door along the partition (0..1)")
+    door_width: float = Field(0.9, ge=0.6, le=2.0)
+
+
+class Change(_Model):
+    """One way the real building differs from its plan, on ``floor``: exactly one of
+    ``remove_wall``, ``add_wall``, ``brick_up`` (a door id), ``move_door``, ``split_room``."""
+
+    floor: int = 0
+    remove_wall: WallPiece | None = None
+    add_wall: NewWall | None = None
+    brick_up: str | None = None
+    move_door: DoorShift | None = None
+    split_room: RoomSplit | None = None
+
+    @model_validator(mode="after")
+    def _one(self) -> "Change":
+        if len([k for k in CHANGE_KINDS if getattr(self, k) is not None]) != 1:
+            raise ValueError(f"give exactly one of {', '.join(CHANGE_KINDS)}")
+        return self
+
+    def kind(self) -> tuple[str, Any]:
+        """(kind, its value)."""
+        k = next(k for k in CHANGE_KINDS if getattr(self, k) is not None)
+        return k, getattr(self, k)
+
+
+CHANGE_KINDS = ("remove_wall", "add_wall", "brick_up", "move_door", "split_room")
+
+
+class Box(_Model):
+    """A piece of furniture placed by hand: ``box`` [x0, y0, x1, y1] on ``floor``."""
+
+    floor: int = 0
+    box: tuple[float, float, float, float]
+
+
+class Furniture(_Model):
+    """Furniture drawn per seed: ``per_room`` pieces (lowest, highest) against the walls
+    of every room, ``corridor`` pieces of clutter along corridors and halls, none within
+    ``keep_clear_m`` of a door or stair; a piece that would cut a floor in two is left out."""
+
+    per_room: tuple[int, int] = (1, 3)
+    corridor: tuple[int, int] = (0, 1)
+    keep_clear_m: float = Field(1.0, ge=0.5, le=3.0)
+
+
+class World(_Model):
+    """How the real building differs from the plan the pipeline is given (``building``).
+
+    ``building``: another plan to start from (default: the given plan); then
+    ``changes``, ``obstacles`` and ``furniture`` (see :mod:`.world`).
+    """
+
+    building: str | None = None
+    furniture: Furniture | None = None
+    obstacles: list[Box] = Field(default_factory=list)
+    changes: list[Change] = Field(default_factory=list)
+
+
 # -- sensors ----------------------------------------------------------------------------
 
 class ImuConfig(_Model):
-    """The foot IMU: a named grade, its rate, mounting and optional overrides."""
+    """The foot IMU: a named grade, its errors, rate, mounting and optional overrides.
+
+    ``errors``: ``as_worn`` (the unit on a boot in the field, uncalibrated: the default),
+    ``calibrated`` (as worn after a still-start gyro calibration), ``datasheet`` (the
+    datasheet numbers only) or ``ideal`` (error-free); see
+    :func:`~.imu_grades.error_specs`. ``gyro``/``accel``/``mag`` override single fields
+    on top of that.
+    """
 
     grade: str = "industrial"
+    errors: ImuErrors = "as_worn"
+    switch_on_s: float = Field(0.0, ge=0, description="when the unit is switched on [s]: it "
+                               "records from then (a firefighter who goes in later switches "
+                               "it on at the door: no still start to calibrate on)")
     rate_hz: float = Field(100.0, ge=50, le=1000)
     axes: str = Field("FLU", description="device axes on the foot, e.g. FLU or FRD (z down)")
     mount_deg: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="roll, pitch, "
@@ -202,6 +309,22 @@ class DispenserConfig(_Model):
                                   "chain falls below this")
     average_packets: int = Field(3, ge=1, le=50)
     min_spacing_m: float = Field(3.0, ge=0)
+    faults: BreadcrumbFaults | None = Field(None, description="kicked, burned, lost "
+                                            "breadcrumbs (default: none)")
+
+
+class BreadcrumbFaults(_Model):
+    """What happens to breadcrumbs once dropped (each drawn per breadcrumb and seed)."""
+
+    dud: float = Field(0.0, ge=0, le=1, description="share that never transmit (broken in "
+                       "the drop)")
+    kick: float = Field(0.0, ge=0, le=1, description="chance that a firefighter passing "
+                        "within 0.7 m kicks it along the way they walk")
+    kick_m: tuple[float, float] = Field((0.5, 3.0), description="how far a kick sends it [m]")
+    lost_per_min: float = Field(0.0, ge=0, le=1, description="chance per minute that it "
+                                "stops (battery, water, crushed)")
+    burn: bool = Field(True, description="one inside a fire zone dies 60-180 s after the "
+                       "fire reaches it")
 
 
 class Sensors(_Model):
@@ -216,10 +339,35 @@ class Sensors(_Model):
 # -- plans ------------------------------------------------------------------------------
 
 class Stops(_Model):
-    """Short random stops along a route (feeling furniture, listening)."""
+    """Short random stops along a route (feeling furniture, listening); with
+    ``kneel_prob`` a stop is made on the knees."""
 
     every_m: float = Field(6.0, gt=0.5)
     duration_s: tuple[float, float] = (1.0, 4.0)
+    kneel_prob: float = Field(0.0, ge=0, le=1)
+
+
+class Deviations(_Model):
+    """How a real searcher departs from the clean hand-on-wall loop (drawn per seed)."""
+
+    skip_rooms: float = Field(0.0, ge=0, le=1, description="share of the rooms (not "
+                              "corridors, not the one the search starts in) left out: their "
+                              "doors are passed by")
+    coverage: float = Field(1.0, gt=0, le=1, description="share of the loop searched "
+                            "before the search ends (a search cut short)")
+    leave_wall: float = Field(0.0, ge=0, le=1, description="chance, every 4 m, of leaving "
+                              "the wall: 3-8 m of the loop replaced by a straight line "
+                              "across the room when that is at least 25 % shorter")
+    backtrack_every_m: float | None = Field(None, gt=2, description="about this often, go "
+                                            "back the way one came and on again")
+    backtrack_m: tuple[float, float] = (1.0, 4.0)
+    sweep_every_m: float | None = Field(None, gt=1, description="about this often, stop "
+                                        "and sweep the floor ahead with the foot")
+    sweep_s: tuple[float, float] = (3.0, 8.0)
+    crawl_share: float = Field(0.0, ge=0, le=1, description="share of the path crawled, "
+                               "in pieces of 3-8 m")
+    run_in_corridors: bool = Field(False, description="corridor stretches over 5 m are run "
+                                   "(gait run)")
 
 
 class Target(_Model):
@@ -261,6 +409,8 @@ class Search(_Model):
     stops: Stops | None = None
     kneel_at_doors_s: float = Field(0.0, ge=0, le=60, description="kneel this long in each "
                                     "doorway before going through (flashover drill, Sec. II)")
+    deviate: Deviations | None = Field(None, description="how the searcher departs from "
+                                       "the clean loop (default: not at all)")
 
 
 class CompartmentalSearch(_Model):
@@ -344,7 +494,11 @@ class AgentSpec(_Model):
 class ScenarioModel(_Model):
     name: str = ""
     description: str = ""
-    building: str
+    family: str = Field("", description="the group `firenav simulate --list` shows it in "
+                        "(paper, field, twin, demo)")
+    building: str = Field(description="the plan the pipeline is given")
+    world: World | None = Field(None, description="how the real building differs from it "
+                                "(default: not at all)")
     duration_s: float | None = Field(None, gt=0)
     truth_rate_hz: float = Field(20.0, gt=0, le=200)
     end_still_s: float = Field(3.0, ge=0, description="still time after the last plan ends")
@@ -368,6 +522,7 @@ class Scenario:
     file: str
     base_dir: Path
     building_path: Path
+    world_path: Path | None
     steps: dict[str, tuple[Step, ...]]
     gaits: dict[str, Gait]
     document: LocatedDocument
@@ -488,21 +643,27 @@ def _validate(doc: LocatedDocument, base_dir: Path) -> Scenario:
     except ValidationError as exc:
         raise ConfigError(_pyd_problems(doc, (), exc)) from None
     problems: list[Problem] = []
-    if model.building in bundled_plans():
-        from ..building import bundled_plan
-        building_path = bundled_plan(model.building)
-    else:
-        building_path = Path(model.building).expanduser()
-        if not building_path.is_absolute():
-            building_path = base_dir / building_path
-        if not building_path.is_file():
-            problems.append(doc.problem(("building",), f"'{model.building}' is neither a "
-                                        f"bundled plan ({', '.join(bundled_plans())}) nor a "
-                                        f"file (looked for {building_path})"))
+
+    def plan_path(name: str, where: tuple) -> Path:
+        if name in bundled_plans():
+            from ..building import bundled_plan
+            return bundled_plan(name)
+        path = Path(name).expanduser()
+        if not path.is_absolute():
+            path = base_dir / path
+        if not path.is_file():
+            problems.append(doc.problem(where, f"'{name}' is neither a bundled plan "
+                                        f"({', '.join(bundled_plans())}) nor a file (looked "
+                                        f"for {path})"))
         else:
             from ..building.loader import plan_problem
-            if (why := plan_problem(building_path)) is not None:
-                problems.append(doc.problem(("building",), why))
+            if (why := plan_problem(path)) is not None:
+                problems.append(doc.problem(where, why))
+        return path
+    building_path = plan_path(model.building, ("building",))
+    world_path = None
+    if model.world is not None and model.world.building is not None:
+        world_path = plan_path(model.world.building, ("world", "building"))
     gaits: dict[str, Gait] = {}
     for name, over in model.gaits.items():
         try:
@@ -537,7 +698,8 @@ def _validate(doc: LocatedDocument, base_dir: Path) -> Scenario:
     if problems:
         raise ConfigError(problems)
     return Scenario(model=model, file=doc.file, base_dir=base_dir,
-                    building_path=Path(building_path), steps=steps, gaits=gaits, document=doc)
+                    building_path=Path(building_path), world_path=world_path, steps=steps,
+                    gaits=gaits, document=doc)
 
 
 def bundled_scenarios() -> list[str]:

@@ -7,7 +7,9 @@ default), ``uwb`` (Range, ``a=<agent>/uwb``, ``b=<anchor>``), ``rssi``
 (BreadcrumbDrop), ``rfid`` (TagDetection), ``tags`` (TagDeployment), ``truth``
 (GroundTruth per agent at the scenario's truth rate, with the floor).
 The source brings the scenario's building, so map-aided plugins need no
-``building:`` line.
+``building:`` line: the plan the scenario gives the pipeline (its ``building``), never
+the world the simulator walked when the scenario's ``world`` says the two differ
+(docs/scenarios.md, "True world and given plan"); the truth comes from the world.
 """
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ from pathlib import Path
 from ..contract import Params, Source, param, pipeline_dir
 from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range,
                         RssiReading, TagDeployment, TagDetection)
+from ..simulator.imu_grades import ImuErrors
 from ..yaml_locations import ConfigError
 
 PORTS: dict[str, type[Message]] = {
@@ -58,6 +61,10 @@ class SimulatorSource(Source):
                                        "long (default: the scenario's own end)")
         block_s: float = param(0.1, unit="s", gt=0, le=10,
                                description="length of the ImuBlock pieces")
+        imu_errors: ImuErrors | None = param(None, description="errors of every foot IMU, "
+                                             "replacing the scenario's: as_worn, "
+                                             "calibrated, datasheet or ideal (default: the "
+                                             "scenario's own, as_worn unless it says)")
 
     @classmethod
     def output_ports(cls, params: Params) -> dict[str, type[Message]]:
@@ -69,10 +76,12 @@ class SimulatorSource(Source):
         super().__init__(params, ctx)
         from ..simulator import load_scenario, simulate
         self.scenario = load_scenario(_scenario_path(params.scenario, ctx.base_dir))
-        self.result = simulate(self.scenario, params.seed, duration_s=params.duration)
+        self.result = simulate(self.scenario, params.seed, duration_s=params.duration,
+                               imu_errors=params.imu_errors)
         self._ports = scenario_ports(self.scenario)
 
     def building(self):
+        """The plan the scenario gives the pipeline (not the simulated world)."""
         return self.result.building
 
     def duration(self) -> tuple[float, float]:

@@ -110,3 +110,79 @@ def test_gauss_markov_is_stationary_with_the_stated_sigma():
     lag = 500  # 5 s = one correlation time
     r = np.mean(x[lag:] * x[:-lag]) / x.var()
     assert r == pytest.approx(np.exp(-1), abs=0.08)
+
+
+def test_the_error_conditions_give_the_specs_they_state():
+    from firenav_framework.simulator.imu_grades import (IMU_ERRORS, STILL_START_RESIDUAL_DPS,
+                                                        error_specs)
+    grade = get_grade("microstrain_3dm_gx5_25")
+    specs = {e: error_specs(grade, e) for e in IMU_ERRORS}
+    assert specs["datasheet"][0] == grade.gyro and specs["datasheet"][1] == grade.accel
+    worn_gyro, worn_accel, _ = specs["as_worn"]
+    for key, value in grade.as_worn.gyro.items():
+        assert getattr(worn_gyro, key) == value
+    assert worn_accel.noise_density_ug_rthz == grade.as_worn.accel["noise_density_ug_rthz"]
+    assert worn_gyro.vibration_bias_dps > 0 == grade.gyro.vibration_bias_dps
+    cal = specs["calibrated"][0]
+    assert cal.turn_on_bias_dps == STILL_START_RESIDUAL_DPS
+    assert cal.vibration_bias_dps == worn_gyro.vibration_bias_dps   # not calibrated away
+    # a scenario's own override sits on top, but a still start takes any turn-on bias
+    over = error_specs(grade, "as_worn", gyro={"turn_on_bias_dps": 0.5})[0]
+    assert over.turn_on_bias_dps == 0.5
+    assert error_specs(grade, "calibrated", gyro={"turn_on_bias_dps": 0.5})[0] \
+        .turn_on_bias_dps == STILL_START_RESIDUAL_DPS
+    # ideal: the readings are the motion itself, to the last bit
+    g, a, _ = specs["ideal"]
+    x = np.random.default_rng(0).normal(0, 3.0, (500, 3))
+    y, sat, _ = corrupt(x, g, 200.0, np.random.default_rng(1), specific_force=x * 20,
+                        temperature_delta=np.linspace(0, 10, 500))
+    assert np.array_equal(y, x) and not sat.any()
+    with pytest.raises(ValueError, match="as_worn, calibrated, datasheet, ideal"):
+        error_specs(grade, "factory")
+
+
+def test_vibration_rectification_grows_with_the_square_root_of_the_vibration():
+    from firenav_framework.simulator.imu_errors import vibration_rms
+    spec = GyroSpec(noise_density_dps_rthz=0, bias_instability_dph=0, turn_on_bias_dps=0,
+                    scale_factor_pct=0, misalignment_deg=0, vibration_bias_dps=0.4)
+    fs, n = 200.0, 4000
+    t = np.arange(n) / fs
+    force = np.zeros((n, 3))
+    force[:, 2] = G0                      # at rest: no bias at all
+    y0, _, err = corrupt(np.zeros((n, 3)), spec, fs, np.random.default_rng(4),
+                         specific_force=force)
+    assert np.abs(y0).max() < 1e-12
+    for amp_g in (0.5, 2.0):              # 40 Hz vibration of rms amp_g / sqrt(2) [g]
+        shaken = force.copy()
+        shaken[:, 0] = amp_g * G0 * np.sin(2 * np.pi * 40.0 * t)
+        assert np.median(vibration_rms(shaken, fs)) == pytest.approx(amp_g / np.sqrt(2),
+                                                                     rel=0.02)
+        y, _, err = corrupt(np.zeros((n, 3)), spec, fs, np.random.default_rng(4),
+                            specific_force=shaken)
+        mid = slice(n // 4, 3 * n // 4)
+        np.testing.assert_allclose(y[mid].mean(axis=0),
+                                   err.vibration * np.sqrt(amp_g / np.sqrt(2)), rtol=0.02)
+    # the per-run direction of the bias is drawn with the stated spread per axis
+    draws = np.array([draw_errors(spec, np.random.default_rng(i)).vibration for i in range(3000)])
+    assert draws.std() == pytest.approx(0.4 * DEG, rel=0.05)
+
+
+def test_as_worn_grades_at_rest_keep_their_datasheet_noise_and_bias_statistics():
+    """Standing still (no vibration) an as-worn unit's gyro is its datasheet's: the Allan
+    deviation of its noise and in-run bias and the spread of its turn-on bias."""
+    from firenav_framework.simulator.imu_grades import error_specs
+    grade = get_grade("xsens_mti3")
+    spec = error_specs(grade, "as_worn")[0]
+    spec = spec.model_copy(update={"turn_on_bias_dps": 0.0, "thermal_drift_dps_per_k": 0.0})
+    fs, n = 100.0, int(3600 * 100)
+    force = np.zeros((n, 3))
+    force[:, 2] = G0
+    y, _, _ = corrupt(np.zeros((n, 3)), spec, fs, np.random.default_rng(11), specific_force=force)
+    y -= y.mean(axis=0)                   # g-sensitivity at 1 g: a constant
+    used, adev = allan_deviation(y[:, 2], fs, np.array([0.1, 1.0, 10.0]))
+    expected = allan_model(used, spec.noise_density_dps_rthz * DEG,
+                           spec.bias_instability_dph * DEG / 3600, spec.bias_tau_s)
+    np.testing.assert_allclose(adev, expected, rtol=0.15)
+    on = np.array([draw_errors(error_specs(grade, "as_worn")[0],
+                               np.random.default_rng(i)).turn_on_bias for i in range(2000)])
+    assert on.std() == pytest.approx(grade.gyro.turn_on_bias_dps * DEG, rel=0.05)
