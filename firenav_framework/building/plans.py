@@ -224,7 +224,7 @@ def apartments_4() -> PlanSketch:
     sk = PlanSketch("apartments_4")
     # U stair in the core x 8..12, y 6..12: flight 1 north at x = 9, landing at y = 11.2,
     # flight 2 south at x = 11; each storey's part of the core south of it is its lobby.
-    stair_path = [(9.0, 6.6), (9.0, 11.2), (11.0, 11.2), (11.0, 6.6)]
+    stair_path = [(9.0, 8.4), (9.0, 11.2), (11.0, 11.2), (11.0, 8.4)]
     for level in range(4):
         f = sk.floor(2.9 * level, 2.9, ["ground", "first", "second", "third"][level])
         f.room(f"{level}core", (8.0, 0.0, 12.0, 12.0), "stair core", use="stairwell")

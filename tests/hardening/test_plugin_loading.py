@@ -55,7 +55,7 @@ def write_pipeline(tmp_path, zupt: str):
 
 @pytest.mark.timeout(120)
 def test_packages_that_exit_interrupt_or_hang_at_import_cost_only_themselves(site):
-    out = firenav(site, "plugins", "list", env={"FIRENAV_IMPORT_TIMEOUT": "1"})
+    out = firenav(site, "plugins", "list", env={"FIRENAV_IMPORT_TIMEOUT": "4"})
     assert out.returncode == 0, out.stderr
     assert "zupt_ins" in out.stdout and "particle_filter" in out.stdout  # built-ins listed
     problems = out.stdout.split("problems while loading plugins:")[1]
@@ -63,12 +63,12 @@ def test_packages_that_exit_interrupt_or_hang_at_import_cost_only_themselves(sit
     assert "ctrlc-firenav: entry point 'ctrlc = ctrlc_hooks' failed to load: KeyboardInterrupt" \
         in problems
     assert "hang-firenav: entry point 'hang = hang_hooks' failed to load: did not finish " \
-           "within 1 s" in problems
+           "within 4 s" in problems
 
 
 @pytest.mark.timeout(120)
 def test_a_package_cannot_silently_replace_a_builtin_and_pinning_chooses_it(site, tmp_path):
-    env = {"FIRENAV_IMPORT_TIMEOUT": "1"}
+    env = {"FIRENAV_IMPORT_TIMEOUT": "4"}  # a busy machine may take 1 s for a real import
     out = firenav(site, "validate", str(write_pipeline(tmp_path, "zupt_ins")), env=env)
     assert out.returncode == 0, out.stderr
     assert "p.yaml:4:" in out.stderr and "'zupt_ins' is also offered by acme-firenav; " \
