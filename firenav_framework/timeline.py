@@ -66,8 +66,7 @@ class _Channel:
     offset: float = 0.0
     typical_dt: float = 0.0
     dropping_until: float | None = None
-    recent: deque = field(default_factory=deque)
-    recent_set: set = field(default_factory=set)
+    recent: deque = field(default_factory=deque)   # the last messages, for duplicates
 
 
 @dataclass(order=True)
@@ -106,7 +105,7 @@ class Timeline:
         key = (stream, msg.device or msg.agent)
         ch = self._channels.get(key)
         if ch is None:
-            ch = self._channels[key] = _Channel()
+            ch = self._channels[key] = _Channel(recent=deque(maxlen=cfg.duplicate_memory))
         if t_recv is None:
             t_recv = getattr(msg, "t_recv", None)
         if not math.isfinite(msg.t):
@@ -116,14 +115,10 @@ class Timeline:
         if ch.offset:
             msg = msg.shifted(ch.offset)
         if cfg.duplicates == "drop":
-            digest = msg.dedup_key()
-            if digest in ch.recent_set:
+            if msg.t <= ch.last_t and self._is_duplicate(ch, msg):
                 self._count("duplicates")
                 return
-            ch.recent.append(digest)
-            ch.recent_set.add(digest)
-            if len(ch.recent) > cfg.duplicate_memory:
-                ch.recent_set.discard(ch.recent.popleft())
+            ch.recent.append(msg)
 
         if ch.dropping_until is not None:
             if msg.t <= ch.dropping_until:
@@ -164,6 +159,20 @@ class Timeline:
         self._newest = max(self._newest, msg.t)
         heapq.heappush(self._heap, _Entry(msg.t, self._seq, stream, msg))
         self._seq += 1
+
+    @staticmethod
+    def _is_duplicate(ch: _Channel, msg: Message) -> bool:
+        """Whether one of the channel's remembered messages equals ``msg`` exactly.
+
+        Only called for a message no newer than its channel's newest: a duplicate has
+        the time of the one it repeats, so a channel whose times go forward (every
+        live link, every steady stream) never computes a key at all.
+        """
+        same_time = [m for m in ch.recent if m.t == msg.t]
+        if not same_time:
+            return False
+        key = msg.dedup_key()
+        return any(m.dedup_key() == key for m in same_time)
 
     def _clock_jump(self, stream: str, key: tuple[str, str], ch: _Channel,
                     msg: Message, jump: float) -> Message | None:
