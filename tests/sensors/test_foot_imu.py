@@ -476,3 +476,26 @@ def test_device_clock_keeps_device_time_and_reanchors_only_on_real_jumps():
     t, resynced = clock.to_pipeline(50.0, 8.51)
     assert resynced and t == pytest.approx(8.51)
     assert clock.to_pipeline(float("nan"), 8.52)[1] is False
+
+
+def test_degraded_mode_decodes_a_firefighter_in_longer_blocks_and_loses_nothing():
+    t, accel, gyro = motion(800, t0=50.0)
+    frames = to_raw_frames(encode_mavlink_imu(t, accel, gyro), transport="mavlink",
+                           device="sys1/comp1")
+    comp, rec, _ = make_component(FootImuSensor, {"axes": FRD, "frames": {"block_s": 0.05}})
+    for f in frames[:200]:
+        comp.handle("raw", f)
+    assert comp.degrade("ff2", 1) is None            # not a firefighter of this sensor
+    assert comp.degrade("ff1", 1) == "frames decoded in blocks of 0.2 s"
+    for f in frames[200:600]:
+        comp.handle("raw", f)
+    assert comp.degrade("ff1", 0) == "frames decoded in blocks of 0.05 s"
+    for f in frames[600:]:
+        comp.handle("raw", f)
+    comp.finish()
+    blocks = rec.on("imu")
+    sizes = [len(b) for b in blocks]
+    normal = {10, 11}   # 0.05 s of 200 Hz frames, give or take the rounding of frame times
+    assert set(sizes[:15]) <= normal and set(sizes[-6:-1]) <= normal
+    assert sum(s in (40, 41) for s in sizes) >= 8   # 400 frames in blocks of 0.2 s
+    np.testing.assert_array_equal(np.concatenate([b.time for b in blocks]), t)  # every sample

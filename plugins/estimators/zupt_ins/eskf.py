@@ -324,7 +324,7 @@ def _align(x: np.ndarray, P: np.ndarray, ist: np.ndarray, fs: np.ndarray, cfg: F
     fs[F_STANCE_Z] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # releases the GIL: firefighters run on worker threads
 def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                x: np.ndarray, P: np.ndarray, ist: np.ndarray, fs: np.ndarray,
                cfg: FilterConfig, out: np.ndarray, events: np.ndarray) -> int:

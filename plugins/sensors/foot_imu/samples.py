@@ -56,6 +56,7 @@ class FrameBatch:
     def __init__(self, block_s: float):
         self.block_s = block_s
         self.frames: list[RawFrame] = []
+        self.agents: set[str] = set()   # firefighters whose samples these frames carried
         self._t0 = math.nan   # frame time of the first frame collected
 
     def add(self, frame: RawFrame) -> list[RawFrame] | None:

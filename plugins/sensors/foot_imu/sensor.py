@@ -17,7 +17,10 @@ from .samples import FrameBatch, Samples
 from .screening import Screening
 from .streams import DeviceStream
 
-__all__ = ["FootImuSensor"]
+__all__ = ["FootImuSensor", "DEGRADED_BLOCKS"]
+
+#: How many times longer frame batches are in the cheaper mode of :meth:`FootImuSensor.degrade`.
+DEGRADED_BLOCKS = 4
 
 
 class FootImuSensor(Sensor):
@@ -76,10 +79,10 @@ class FootImuSensor(Sensor):
             batch = self._batches[key] = FrameBatch(self.params.frames.block_s)
         done = batch.add(frame)
         if done is not None:
-            self._decode(codec, done)
+            self._decode(codec, done, batch)
 
-    def _decode(self, codec: Codec, frames: list[RawFrame], skip_agent: str | None = None
-                ) -> None:
+    def _decode(self, codec: Codec, frames: list[RawFrame], batch: FrameBatch | None = None,
+                skip_agent: str | None = None) -> None:
         """Decode one link device's batch of frames and condition each device's samples
         (except those of ``skip_agent``, being reset)."""
         decoded = codec.decode_batch(frames)
@@ -104,6 +107,8 @@ class FootImuSensor(Sensor):
             stream, clock = self._routes.route(device, agent, self._t)
             if stream.agent == skip_agent:
                 continue
+            if batch is not None:
+                batch.agents.add(stream.agent)
             t = np.empty(len(mine))
             for k, (t_dev, t_fr) in enumerate(zip(mine.t.tolist(), t_frame.tolist())):
                 t[k], resynced = clock.to_pipeline(t_dev, t_fr)
@@ -128,6 +133,20 @@ class FootImuSensor(Sensor):
                 held, stream.held = stream.held, None
                 self._condition(stream, self._t, held, final=True)
         self.ctx.flush_reports()
+
+    def degrade(self, agent: str, level: int) -> str | None:
+        """Backpressure (``firenav_framework.execution``): at level 1 the frames of
+        ``agent``'s link devices are decoded in batches :data:`DEGRADED_BLOCKS` times
+        longer (fewer, longer blocks: less work per sample, later poses); level 0
+        restores ``frames.block_s``. A link device shared with others (a CAN bus) is
+        coarsened for all of them."""
+        block_s = self.params.frames.block_s * (DEGRADED_BLOCKS if level else 1)
+        changed = [b for b in self._batches.values() if agent in b.agents]
+        for batch in changed:
+            batch.block_s = block_s
+        if not changed:
+            return None
+        return f"frames decoded in blocks of {block_s:g} s"
 
     def reset(self, agent: str) -> None:
         for (transport, _), batch in list(self._batches.items()):
