@@ -499,3 +499,28 @@ def test_degraded_mode_decodes_a_firefighter_in_longer_blocks_and_loses_nothing(
     assert set(sizes[:15]) <= normal and set(sizes[-6:-1]) <= normal
     assert sum(s in (40, 41) for s in sizes) >= 8   # 400 frames in blocks of 0.2 s
     np.testing.assert_allclose(np.concatenate([b.time for b in blocks]), t, atol=1e-6)  # all
+
+
+def test_clean_blocks_take_the_short_path_with_the_result_of_every_rule():
+    from firenav_plugins.sensors.foot_imu.screening import (DeviceHistory, ScreeningLimits,
+                                                             apply_rules, screen)
+    rng = np.random.default_rng(7)
+    limits = ScreeningLimits(accel_saturation=150.0)
+    fast, full = DeviceHistory(), DeviceHistory()
+    t0 = 0.0
+    for k in range(300):
+        n = int(rng.integers(1, 25))
+        t = t0 + np.cumsum(rng.uniform(0.001, 0.06, n))   # some steps are gaps
+        t0 = t[-1]
+        accel = rng.normal(0, 60, (n, 3))                   # some saturated, rarely out of range
+        gyro = rng.normal(0, 3, (n, 3))
+        if k % 7 == 0:
+            t[n // 2] = t[max(n // 2 - 1, 0)]                # a repeated time
+        flags = (rng.random(n) < 0.05).astype(np.uint8) * IMU_FLAG_BITS["saturated"]
+        a, b = screen(t, accel, gyro, limits, fast, flags), apply_rules(t, accel, gyro, limits,
+                                                                        full, flags)
+        np.testing.assert_array_equal(a.keep, b.keep)
+        np.testing.assert_array_equal(a.flags, b.flags)
+        assert a.counts == b.counts and a.longest_gap == b.longest_gap
+        np.testing.assert_array_equal(fast.times, full.times)
+        np.testing.assert_array_equal(fast.values, full.values)
