@@ -22,10 +22,6 @@ KNOWN: dict[tuple[str, str], dict[str, str]] = {
                         "are on the doors), so the same deployment again is a duplicate: "
                         "decide whether reset forgets them",
     },
-    ("sink", "track_plot"): {
-        "bad_input": "a GroundTruth with an empty position (the message type accepts any "
-                     "shape) fails the plot at finish",
-    },
     ("estimator", "zupt_ins"): {
         "parameter_docs": "gravity.latitude_deg is in degrees; odometry.length_sigma has no unit",
     },
