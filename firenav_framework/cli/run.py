@@ -141,6 +141,9 @@ def execute(spec: PipelineSpec, out: Path, *, realtime: bool = False, speed: flo
                     progress=None if quiet else sys.stderr, workers=workers)
     previous = signal.getsignal(signal.SIGTERM)
     signal.signal(signal.SIGTERM, lambda *_: runner.stop())
+    if not quiet:   # at once: a first run may then compile for a minute
+        print(f"[firenav] running {spec.name} ({len(spec.components)} components), output "
+              f"to {out}/", file=sys.stderr, flush=True)
     try:
         with compile_notice(None if quiet else sys.stderr), background_rendering():
             result = runner.run()
