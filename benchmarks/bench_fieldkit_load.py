@@ -98,6 +98,13 @@ def sender(port_mav: int, port_lines: int, n: int, seconds: float, start, q) -> 
            "lag_max_ms": float(lag.max())})
 
 
+PROCESSING = """
+sensors:
+  - {{id: imu, plugin: foot_imu, input: mav.raw, axes: [x, -y, -z],
+     frames: {{block_s: {block}, agent_map: {agents}}}}}
+estimators:
+  - {{id: ins, plugin: zupt_ins, input: imu.imu, imu: {{sample_rate: 200}}}}
+"""
 PIPELINE = """
 name: load
 timeline: {{reorder_window: {window}, late: deliver}}
@@ -105,12 +112,14 @@ sources:
   - {{id: mav, plugin: mavlink, url: "udpin:127.0.0.1:{pm}", heartbeat_s: 0, record_dir: {rec},
      rotate_mb: {rotate}}}
   - {{id: lines, plugin: udp_lines, bind: "127.0.0.1:{pl}", record_dir: {rec}}}
-sensors:
-  - {{id: imu, plugin: foot_imu, input: mav.raw, axes: [x, -y, -z],
-     frames: {{block_s: {block}, agent_map: {agents}}}}}
-estimators:
-  - {{id: ins, plugin: zupt_ins, input: imu.imu, imu: {{sample_rate: 200}}}}
-"""
+""" + PROCESSING
+#: The same processing on the recorded MAVLink log (as ``firenav replay`` swaps the sources).
+REPLAY = """
+name: load-replay
+timeline: {{reorder_window: {window}, late: deliver}}
+sources:
+  - {{id: mav, plugin: recording, path: {log}}}
+""" + PROCESSING
 
 
 def spin(seconds: float) -> None:
@@ -120,19 +129,6 @@ def spin(seconds: float) -> None:
     while time.monotonic() < end:
         for _ in range(10000):
             x += 1
-
-
-REPLAY = """
-name: load-replay
-timeline: {{reorder_window: {window}, late: deliver}}
-sources:
-  - {{id: mav, plugin: recording, path: {log}}}
-sensors:
-  - {{id: imu, plugin: foot_imu, input: mav.raw, axes: [x, -y, -z],
-     frames: {{block_s: {block}, agent_map: {agents}}}}}
-estimators:
-  - {{id: ins, plugin: zupt_ins, input: imu.imu, imu: {{sample_rate: 200}}}}
-"""
 
 
 def agent_map(n: int) -> str:
