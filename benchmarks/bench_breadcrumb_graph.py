@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 
 # Small dense updates: one BLAS thread each is faster, and much faster on a loaded machine.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
@@ -352,6 +353,13 @@ def stats(lat_s: np.ndarray) -> str:
             f"p95 {np.percentile(ms, 95):7.2f} ms  max {ms.max():7.1f} ms")
 
 
+def with_cpu(fn, *args, **kw):
+    """``fn(*args, **kw)`` and the CPU seconds of this process it took."""
+    c0 = time.process_time()
+    out = fn(*args, **kw)
+    return out, time.process_time() - c0
+
+
 def max_diff(a: dict, b: dict) -> float:
     common = [k for k in a if k in b and k != "base"]
     return float(max(np.max(np.abs(np.asarray(a[k]) - np.asarray(b[k]))) for k in common))
@@ -375,9 +383,10 @@ def main() -> None:
           f"({sum(len(u.ranges) for u in updates)} ranges, "
           f"{sum(len(u.encounters) for u in updates)} encounters), 20 agents, seed {args.seed}")
 
-    gen, lat = run_ours(updates)
+    (gen, lat), cpu = with_cpu(run_ours, updates)
     print(f"ours (incremental GEN)     {stats(lat)}   "
-          f"[{gen.solver.rebuilds} refactorisations, {gen.relinearised} relinearisations]")
+          f"[{gen.solver.rebuilds} refactorisations, {gen.relinearised} relinearisations; "
+          f"CPU {cpu:.1f} s, wall {lat.sum():.1f} s]")
     batch = run_batch_sampled(updates, args.batch_every)
     print(f"sparse batch BLUE          {stats(batch)}   (every {args.batch_every}th update)")
     inc = gen.estimates()
@@ -399,9 +408,10 @@ def main() -> None:
           f"vs batch BLUE max |dx| = {max_diff(lin.estimates(), ref):.1e} m")
 
     if args.heading_states:
-        hs, lat_h = run_ours(updates, heading_states=True)
+        (hs, lat_h), cpu_h = with_cpu(run_ours, updates, heading_states=True)
         print(f"with heading states: ours {stats(lat_h)}   [{hs.solver.rebuilds} "
-              f"refactorisations, {hs.relinearised} relinearisations]")
+              f"refactorisations, {hs.relinearised} relinearisations; CPU {cpu_h:.1f} s, "
+              f"wall {lat_h.sum():.1f} s]")
         print(f"with heading states: sparse batch BLUE "
               f"{stats(run_batch_sampled(updates, args.batch_every, heading_states=True))}")
         inc_h = {k: v for k, v in hs.estimates().items() if not str(k).endswith("/h")}
@@ -414,11 +424,13 @@ def main() -> None:
     except ImportError:
         print("GTSAM: not installed (pip install gtsam) - iSAM2 / LM columns skipped")
         return
-    g = run_gtsam(updates, gtsam)
-    print(f"GTSAM iSAM2 (update+est.)  {stats(g['lat'])}")
+    g, cpu_g = with_cpu(run_gtsam, updates, gtsam)
+    print(f"GTSAM iSAM2 (update+est.)  {stats(g['lat'])}   [CPU {cpu_g:.1f} s incl. batch "
+          f"LM, wall {g['lat'].sum():.1f} s of updates]")
     if args.heading_states:
-        gh = run_gtsam(updates, gtsam, heading_states=True)
+        gh, cpu_gh = with_cpu(run_gtsam, updates, gtsam, heading_states=True)
         print(f"with heading states: GTSAM iSAM2 (update+est.) {stats(gh['lat'])}   "
+              f"[CPU {cpu_gh:.1f} s incl. batch LM, wall {gh['lat'].sum():.1f} s of updates] "
               f"(its heading edges are Python CustomFactors); batch LM "
               f"{1e3 * gh['batch_s']:.0f} ms; ours batch optimum vs GTSAM LM max |dx| = "
               f"{max_diff(opt_h, gh['lm']):.1e} m")
