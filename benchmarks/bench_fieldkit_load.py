@@ -191,7 +191,7 @@ def run(window: float, block: float, n: int, seconds: float, profile: bool,
     spec = load_pipeline_text(PIPELINE.format(window=window, pm=pm, pl=pl, rec=rec,
                                               block=block, agents=agents, rotate=rotate_mb))
     m: dict = {"t0": None, "offset": {}, "block": {}, "pose_lat": [], "pose_lat_oldest": [],
-               "bus_lat": [], "bus_at": [], "pose_at": [],
+               "bus_lat": [], "bus_at": [], "pose_at": [], "stopping": False,
                "frames": 0, "lines": 0, "samples": 0, "poses": 0}
 
     def tap(stream: str, msg) -> None:
@@ -208,7 +208,8 @@ def run(window: float, block: float, n: int, seconds: float, profile: bool,
         elif stream == "imu.imu" and isinstance(msg, ImuBlock):
             m["samples"] += len(msg)
             m["block"][msg.agent] = (float(msg.time[-1]), float(msg.time[0]))
-        elif stream == "ins.pose" and isinstance(msg, PoseEstimate) and m["t0"] is not None:
+        elif stream == "ins.pose" and isinstance(msg, PoseEstimate) and m["t0"] is not None \
+                and not m["stopping"]:   # not the poses finish() publishes after the run
             m["poses"] += 1
             now, offset = clock.now(), m["offset"][int(msg.agent[2:])]
             newest, oldest = m["block"][msg.agent]
@@ -276,6 +277,7 @@ def run(window: float, block: float, n: int, seconds: float, profile: bool,
     deadline = time.monotonic() + 30
     while (m["frames"] < sent["imu"] or m["lines"] < sent["lines"]) and time.monotonic() < deadline:
         time.sleep(0.2)
+    m["stopping"] = True
     runner.stop()
     th.join(120)
     ru1 = resource.getrusage(resource.RUSAGE_SELF)
