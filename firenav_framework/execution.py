@@ -21,7 +21,9 @@ state in :class:`~firenav_framework.contract.PerAgent`). Its numba kernels compi
   ``skipped_after_fault``), as the serial bus would not have delivered them.
 
 A replay therefore publishes the same messages in the same order whatever the thread
-timing, and each firefighter's track equals the serial run's.
+timing, and each firefighter's track equals the serial run's. A lane component's
+counters and rate-limited reports (``ctx.count``, ``ctx.report``) are updated from its
+workers: one dictionary entry per call, under the GIL.
 
 :class:`Backpressure` watches how long released messages waited in a live run. When
 the kit falls behind by more than ``behind_s`` (the CPU cannot keep up, e.g. another

@@ -103,6 +103,9 @@ class Runner:
                  realtime: bool = False, speed: float = 1.0,
                  progress: TextIO | None = None, progress_every: float = 2.0,
                  workers: int = 0, backpressure: bool = True):
+        """``workers``: threads for the per-firefighter work of components that allow it
+        (0: none); ``backpressure``: in live runs, degrade firefighters while the kit is
+        behind (:mod:`.execution`)."""
         self.spec = spec
         self.output_dir = output_dir
         self.realtime = realtime
@@ -209,7 +212,8 @@ class Runner:
             self.lanes = AgentLanes(self.bus, self._publish, self.workers)
             self.lanes.install(self.subs, lane_components(self.components),
                                {cs.id: tuple(cs.inputs) for cs in self.spec.components})
-        if self.use_backpressure:
+        live = any(isinstance(c, Source) and c.live for c in self.components.values())
+        if self.use_backpressure and live:
             bp = self.backpressure = Backpressure(
                 self.components, lambda d: self.bus.publish("runner.diagnostics", d))
             if bp.components:
