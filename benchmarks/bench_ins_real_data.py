@@ -2,6 +2,8 @@
 
     .venv/bin/python benchmarks/bench_ins_real_data.py            # tables + summary
     .venv/bin/python benchmarks/bench_ins_real_data.py --tune     # redo the detector tuning
+    .venv/bin/python benchmarks/bench_ins_real_data.py --xio DIR --zupt-fgo DIR/measData
+                                                   # public recordings, where you have them
 
 PyShoe VICON set (56 trials): the 2D ARMSE exactly as PyShoe defines it (rotation
 alignment at the first sample 0.8 m from the start; per-sample RMS over x and y, see
@@ -39,11 +41,11 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
-    IndoorWalk, ViconTrial, load_indoor_walk, load_vicon_trial)
+    VICON_MOTIONS, IndoorWalk, ViconTrial, load_indoor_walk, load_vicon_trial, vicon_motion)
 from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import eskf  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.metrics import (  # noqa: E402
-    pyshoe_armse, stride_errors)
+    path_length, pyshoe_armse, rigid_fit_2d, shape_error_per_distance, stride_errors)
 from firenav_plugins.estimators.zupt_ins.retro import correct_positions  # noqa: E402
 
 FLU = np.array([1.0, -1.0, -1.0])     # the datasets' z-down MicroStrain -> FLU
@@ -58,10 +60,20 @@ def data_dir() -> Path:
     return Path(env) if env else REPO.parent / "shared" / "data"
 
 
+#: The plugin's defaults before crawling got its own detector levels (the upright
+#: levels throughout), the level-floor height was held and steps settled into their
+#: stance (the "before" column): the same run shows what the changes did.
+BEFORE = ZuptInsParams(detector={"crawl": {"low": 6.6, "high": 8.7, "kappa": 0.25,
+                                           "prominence": 2.0, "min_stance": 0.04}},
+                       height={"correction": False}, outputs={"step_settle": 0.0})
+
+
 @dataclass
 class TrialResult:
     armse: float          # 2D ARMSE [m], full-rate track (retro-corrected if enabled)
     vertical: float       # mean |dz| [m] against the VICON height
+    shape: float          # whole-track rigid-fit mean error per metre of VICON path [-]
+    path: float           # VICON path length [m]
 
 
 @dataclass
@@ -70,6 +82,9 @@ class WalkResult:
     final: float          # at the last stride [m]
     percent: float        # mean / distance [%]
     height: float         # mean |z| at the strides [m] (level floors)
+    height_max: float     # max |z| at the strides [m]
+    height_end: float     # |z| at the last stride [m]
+    distance: float       # surveyed distance [m]
 
 
 def run(params: ZuptInsParams, t: np.ndarray, imu: np.ndarray) -> tuple[BlockResult, np.ndarray]:
@@ -86,19 +101,23 @@ def eval_trial(params: ZuptInsParams, tr: ViconTrial) -> TrialResult:
     _, pos = run(params, tr.ts, tr.imu)
     armse = pyshoe_armse(pos[:, :2], tr.gt)
     vertical = float(np.mean(np.abs((pos[:, 2] - pos[0, 2]) - (tr.gt[:, 2] - tr.gt[0, 2]))))
-    return TrialResult(armse, vertical)
+    return TrialResult(armse, vertical, shape_error_per_distance(pos, tr.gt),
+                       path_length(tr.gt[::10]))
 
 
 def eval_walk(params: ZuptInsParams, w: IndoorWalk) -> WalkResult:
     _, pos = run(params, w.ts, w.imu)
     at = pos[w.stride_index]
     e = stride_errors(at[:, :2], w.gcp, n_align=N_ALIGN)
-    return WalkResult(e.mean, e.final, e.mean_percent, float(np.mean(np.abs(at[:, 2]))))
+    z = np.abs(at[:, 2] - at[0, 2])
+    return WalkResult(e.mean, e.final, e.mean_percent, float(z.mean()), float(z.max()),
+                      float(z[-1]), e.distance)
 
 
 def pyshoe_walk(w: IndoorWalk) -> WalkResult:
     e = stride_errors(w.pyshoe[w.stride_index], w.gcp, n_align=N_ALIGN)
-    return WalkResult(e.mean, e.final, e.mean_percent, float("nan"))
+    return WalkResult(e.mean, e.final, e.mean_percent, float("nan"), float("nan"), float("nan"),
+                      e.distance)
 
 
 def vicon_armse(params: ZuptInsParams, trials: list[ViconTrial]) -> np.ndarray:
@@ -170,17 +189,47 @@ def tune(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
 
 
 # -- report -----------------------------------------------------------------------------
+def split(i: int) -> str:
+    """Tuning (even index in name order) or held-out (odd) half of the VICON trials."""
+    return "tune" if i % 2 == 0 else "held"
+
+
+def motion_summary(trials: list[ViconTrial], rows: list[dict[str, TrialResult]],
+                   motions: list[str], key: str) -> None:
+    """Per motion class and half: mean ARMSE, ARMSE per metre and shape error per metre;
+    each class's shape error per metre beside walking's (the crawl target: <= 3x)."""
+    print(f"\nBy motion ({key}): mean over trials; 'per m' = ARMSE / VICON path, 'shape/m' ="
+          " whole-track rigid-fit mean error / path")
+    walk = {}
+    for half in ("tune", "held", "all"):
+        for motion in VICON_MOTIONS:
+            idx = [i for i, m in enumerate(motions) if m == motion
+                   and (half == "all" or split(i) == half)]
+            if not idx:
+                continue
+            r = [rows[i][key] for i in idx]
+            shape = float(np.mean([x.shape for x in r]))
+            if motion == "walk":
+                walk[half] = shape
+            ratio = f"{shape / walk[half]:4.1f}x walking" if half in walk else ""
+            print(f"  {half:4s} {motion:9s} n={len(idx):2d}  ARMSE {np.mean([x.armse for x in r]):6.3f} m"
+                  f"  per m {100 * np.mean([x.armse / x.path for x in r]):5.2f} %"
+                  f"  shape/m {100 * shape:5.2f} %  {ratio}")
+
+
 def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     ours = ZuptInsParams()
     variants = {
         "ours": ours,
+        "before": BEFORE,
         "no retro": ZuptInsParams(outputs={"retrospective_correction": False}),
-        "height corr": ZuptInsParams(height={"correction": True}),
+        "no height": ZuptInsParams(height={"correction": False}),
     }
     fixed = {g: ZuptInsParams(detector={"kind": "shoe", "threshold": g},
                               outputs={"retrospective_correction": False}, **PYSHOE_SETTINGS)
              for g in (1e7, 3e7, 1e8, 5e8)}
     t0 = time.perf_counter()
+    motions = [vicon_motion(tr) for tr in trials]
     rows = []
     for i, tr in enumerate(trials):
         r = {k: eval_trial(p, tr) for k, p in variants.items()}
@@ -190,23 +239,25 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     stored_best = np.array([tr.best_error for tr in trials])
 
     print("PyShoe VICON trials: 2D ARMSE [m] (PyShoe's definition). 'ours' = plugin defaults "
-          "(adaptive detector, retrospective correction); 'shoe G' = fixed SHOE threshold G "
+          "(adaptive detector, retrospective correction); 'before' = the defaults before "
+          "crawling had levels of its own; 'shoe G' = fixed SHOE threshold G "
           "with PyShoe's filter settings; 'opt shoe'/'opt best' = per-trial-optimal errors "
-          "stored in the files. Split: tuning (even) / held-out (odd).\n")
-    cols = ["ours", "no retro", "shoe 1e+07", "shoe 1e+08"]
-    print(f"{'#':>2} {'trial':20s} {'split':5s} " + " ".join(f"{c:>10s}" for c in cols)
+          "stored in the files. Split: tuning (even) / held-out (odd); motion: "
+          "foot_imu_datasets.vicon_motion.\n")
+    cols = ["ours", "before", "no retro", "shoe 1e+07", "shoe 1e+08"]
+    print(f"{'#':>2} {'trial':20s} {'split':5s} {'motion':9s} " + " ".join(f"{c:>10s}" for c in cols)
           + f" {'opt shoe':>9s} {'opt best':>9s}")
     for i, (tr, r) in enumerate(zip(trials, rows)):
-        print(f"{i:2d} {tr.path.stem:20s} {'tune' if i % 2 == 0 else 'held':5s} "
+        print(f"{i:2d} {tr.path.stem:20s} {split(i):5s} {motions[i]:9s} "
               + " ".join(f"{r[c].armse:10.3f}" for c in cols)
               + f" {stored_shoe[i]:9.3f} {stored_best[i]:9.3f}")
 
     def summary(name: str, values: np.ndarray) -> None:
-        print(f"  {name:44s} mean {values.mean():6.3f}  median {np.median(values):6.3f}  "
+        print(f"  {name:46s} mean {values.mean():6.3f}  median {np.median(values):6.3f}  "
               f"tuning {values[0::2].mean():6.3f}  held-out {values[1::2].mean():6.3f}  "
               f"max {values.max():6.3f}")
 
-    print("\nSummary over the 56 trials [m]:")
+    print(f"\nSummary over the {len(trials)} trials [m]:")
     for k in variants:
         summary(f"ours: {k}", np.array([r[k].armse for r in rows]))
     for g in fixed:
@@ -214,41 +265,162 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
                                                                       for r in rows]))
     summary("stored per-trial-optimal SHOE (tuned on truth)", stored_shoe)
     summary("stored per-trial best of 5 detectors", stored_best)
+    for key in ("ours", "before"):
+        motion_summary(trials, rows, motions, key)
     vert = {k: np.array([r[k].vertical for r in rows]) for k in variants}
     print("\nVertical: mean |dz| against VICON height [m]: "
           + ", ".join(f"{k} {v.mean():.3f}" for k, v in vert.items()))
 
     print("\nIndoor walks: error at the surveyed strides, rigid fit on the first "
-          f"{N_ALIGN} strides [m, % of distance]; height = mean |z| at the strides [m]\n")
-    print(f"{'walk':8s} {'dist':>6s} | {'ours m':>7s} {'%':>5s} {'final':>6s} {'height':>6s} | "
-          f"{'+hcorr h':>8s} | {'PyShoe m':>8s} {'%':>5s} {'final':>6s} | {'SHOE 1e8 %':>10s}")
-    w_ours, w_py, w_h, w_hc, w_fixed = [], [], [], [], []
+          f"{N_ALIGN} strides [m, % of distance]; height: mean and max |z| at the strides [m] "
+          "(the floors are level), and per 100 m of walk the height at the last stride "
+          "(the drift) and the largest\n")
+    print(f"{'walk':8s} {'dist':>6s} | {'ours m':>7s} {'%':>5s} {'final':>6s} {'height':>6s} "
+          f"{'max':>5s} {'end/100m':>8s} {'max/100m':>8s} | {'before %':>8s} {'height':>6s} "
+          f"{'max':>5s} {'end/100m':>8s} | {'PyShoe m':>8s} {'%':>5s} {'final':>6s} | "
+          f"{'SHOE 1e8 %':>10s}")
+    acc = {k: [] for k in ("ours", "before", "py", "fixed", "h", "hmax", "bh", "bhmax", "per100",
+                           "bper100", "end100", "bend100")}
     for w in walks:
         o = eval_walk(ours, w)
-        hc = eval_walk(variants["height corr"], w)
+        b = eval_walk(BEFORE, w)
         p = pyshoe_walk(w)
         f = eval_walk(fixed[1e8], w)
-        dist = stride_errors(w.gcp, w.gcp).distance
-        print(f"{w.path.stem:8s} {dist:6.1f} | {o.mean:7.2f} {o.percent:5.2f} {o.final:6.2f} "
-              f"{o.height:6.2f} | {hc.height:8.2f} | {p.mean:8.2f} {p.percent:5.2f} "
-              f"{p.final:6.2f} | {f.percent:10.2f}")
-        w_ours.append(o.percent)
-        w_py.append(p.percent)
-        w_h.append(o.height)
-        w_hc.append(hc.height)
-        w_fixed.append(f.percent)
-    print(f"{'mean':8s} {'':6s} | {'':7s} {np.mean(w_ours):5.2f} {'':6s} {np.mean(w_h):6.2f} | "
-          f"{np.mean(w_hc):8.2f} | {'':8s} {np.mean(w_py):5.2f} {'':6s} | {np.mean(w_fixed):10.2f}")
-    better = sum(a < b for a, b in zip(w_ours, w_py))
+        per100, bper100 = 100 * o.height_max / o.distance, 100 * b.height_max / b.distance
+        end100, bend100 = 100 * o.height_end / o.distance, 100 * b.height_end / b.distance
+        print(f"{w.path.stem:8s} {o.distance:6.1f} | {o.mean:7.2f} {o.percent:5.2f} {o.final:6.2f} "
+              f"{o.height:6.2f} {o.height_max:5.2f} {end100:8.2f} {per100:8.2f} | "
+              f"{b.percent:8.2f} {b.height:6.2f} {b.height_max:5.2f} {bend100:8.2f} | "
+              f"{p.mean:8.2f} {p.percent:5.2f} {p.final:6.2f} | {f.percent:10.2f}")
+        for k, v in (("ours", o.percent), ("before", b.percent), ("py", p.percent),
+                     ("fixed", f.percent), ("h", o.height), ("hmax", o.height_max),
+                     ("bh", b.height), ("bhmax", b.height_max), ("per100", per100),
+                     ("bper100", bper100), ("end100", end100), ("bend100", bend100)):
+            acc[k].append(v)
+    m = {k: float(np.mean(v)) for k, v in acc.items()}
+    print(f"{'mean':8s} {'':6s} | {'':7s} {m['ours']:5.2f} {'':6s} {m['h']:6.2f} {m['hmax']:5.2f} "
+          f"{m['end100']:8.2f} {m['per100']:8.2f} | {m['before']:8.2f} {m['bh']:6.2f} "
+          f"{m['bhmax']:5.2f} {m['bend100']:8.2f} | {'':8s} {m['py']:5.2f} {'':6s} | "
+          f"{m['fixed']:10.2f}")
+    better = sum(a < b for a, b in zip(acc["ours"], acc["py"]))
     print(f"\nours beats the stored PyShoe trajectory on {better} of {len(walks)} walks; "
-          f"mean {np.mean(w_ours):.2f} % vs {np.mean(w_py):.2f} %")
+          f"mean {m['ours']:.2f} % vs {m['py']:.2f} % (before: {m['before']:.2f} %); "
+          f"vertical drift per 100 m, worst walk: {max(acc['end100']):.2f} m at the end "
+          f"(before {max(acc['bend100']):.2f} m), {max(acc['per100']):.2f} m at most "
+          f"(before {max(acc['bper100']):.2f} m)")
     print(f"({time.perf_counter() - t0:.0f} s)")
+
+
+# -- public recordings (not on this machine: give their folders) ---------------------------
+def recording_arrays(path: Path) -> tuple[dict[str, tuple], list]:
+    """IMU arrays per device (t, accel, gyro; repeated samples dropped, as the sensor
+    does) and the truth messages of a recording, read by the recording source's readers."""
+    from firenav_framework.formats.base import ReadOptions
+    from firenav_framework.sources.readers import find_reader
+
+    imu: dict[str, list] = {}
+    truth = []
+    for port, msg in find_reader(path)(path, ReadOptions()):
+        if port == "imu":
+            imu.setdefault(msg.device, []).append(msg)
+        elif port == "truth":
+            truth.append(msg)
+    out = {}
+    for device, blocks in imu.items():
+        t = np.concatenate([b.time for b in blocks])
+        keep = np.concatenate(([True], np.diff(t) > 0))
+        out[device] = (t[keep], np.concatenate([b.accel for b in blocks])[keep],
+                       np.concatenate([b.gyro for b in blocks])[keep])
+    return out, truth
+
+
+def run_flu(params: ZuptInsParams, t: np.ndarray, accel: np.ndarray, gyro: np.ndarray
+            ) -> np.ndarray:
+    """Full-rate positions of the INS on samples already in FLU (z-up devices)."""
+    rate = 1.0 / float(np.median(np.diff(t)))
+    eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
+    res = BlockResult.concat([eng.process(t, accel, gyro), eng.finish()])
+    pos = correct_positions(res.states[:, eskf.O_T], res.states[:, eskf.O_POS:eskf.O_POS + 3],
+                            res.events)
+    return pos[res.states[:, eskf.O_ALIGNED] > 0]
+
+
+#: x-io Gait-Tracking README: "the final displacement of the foot is 82 mm for a ~25 m
+#: walk (short_walk.csv), and 421 mm for a ~60 m walk (long_walk.csv)" (their script, 3D).
+XIO_PUBLISHED = {"short_walk.csv": 0.082, "long_walk.csv": 0.421}
+
+
+def report_xio(folder: Path) -> None:
+    """Closure of the two Gait-Tracking loops (they end where they start)."""
+    print(f"\nx-io Gait-Tracking loops ({folder}): distance between the first and last "
+          "position [m], horizontal / 3D; their script's published 3D figure beside")
+    for name, published in XIO_PUBLISHED.items():
+        path = folder / name
+        if not path.is_file():
+            print(f"  {name}: not found")
+            continue
+        (t, accel, gyro), = recording_arrays(path)[0].values()
+        row = []
+        for key, params in (("ours", ZuptInsParams()), ("before", BEFORE)):
+            pos = run_flu(params, t, accel, gyro)
+            d = pos[-1] - pos[0]
+            row.append(f"{key} {np.hypot(d[0], d[1]):.3f} / {np.linalg.norm(d):.3f}")
+        print(f"  {name:15s} {', '.join(row)}; x-io {published:.3f}")
+
+
+#: Constrained-ZUPT-FGO results/statistics_report_hor.csv: mean horizontal error [m]
+#: (right foot, left foot) of their EKF-ZUPT and FGO-ZUPT without position measurements.
+ZUPT_FGO_PUBLISHED = {"EKF-ZUPT": (1.310, 3.338), "FGO-ZUPT": (0.446, 1.788)}
+
+
+def report_zupt_fgo(folder: Path) -> None:
+    """Both feet of Constrained-ZUPT-FGO's measData against positionGt.csv: the mean
+    horizontal error over every 60 Hz epoch after a 2D rigid fit on the first 5 steps'
+    worth of track (3 s after the start of navigation), beside their published figures."""
+    print(f"\nConstrained-ZUPT-FGO measData ({folder}): mean horizontal error [m] at every "
+          "epoch, rigid fit on the first 3 s of motion")
+    mine = {}
+    for foot in ("Right", "Left"):
+        path = folder / f"imuMeas{foot}.csv"
+        if not path.is_file():
+            print(f"  {path.name}: not found")
+            return
+        arrays, truth = recording_arrays(path)
+        (t, accel, gyro), = arrays.values()
+        tt = np.array([m.t for m in truth])
+        gt = np.array([m.position[:2] for m in truth])
+        for key, params in (("ours", ZuptInsParams()), ("before", BEFORE)):
+            rate = 1.0 / float(np.median(np.diff(t)))
+            eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
+            res = BlockResult.concat([eng.process(t, accel, gyro), eng.finish()])
+            pos = correct_positions(res.states[:, eskf.O_T],
+                                    res.states[:, eskf.O_POS:eskf.O_POS + 3], res.events)
+            ok = res.states[:, eskf.O_ALIGNED] > 0
+            te, pe = res.states[ok, eskf.O_T], pos[ok, :2]
+            g = np.column_stack([np.interp(te, tt, gt[:, i]) for i in (0, 1)])
+            moving = np.flatnonzero(np.hypot(*(g - g[0]).T) > 0.3)
+            fit = slice(0, moving[0] + int(3 * rate)) if len(moving) else slice(None)
+            R, tr = rigid_fit_2d(pe[fit], g[fit])
+            mine[(foot, key)] = float(np.mean(np.hypot(*(pe @ R.T + tr - g).T)))
+    for key in ("ours", "before"):
+        print(f"  {key:10s} right {mine[('Right', key)]:.3f}, left {mine[('Left', key)]:.3f}")
+    for name, (right, left) in ZUPT_FGO_PUBLISHED.items():
+        print(f"  {name:10s} right {right:.3f}, left {left:.3f} (published, their own alignment)")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tune", action="store_true", help="redo the detector tuning (minutes)")
+    ap.add_argument("--xio", type=Path, help="folder of x-io Gait-Tracking's short_walk.csv "
+                    "and long_walk.csv (the project's repository)")
+    ap.add_argument("--zupt-fgo", type=Path, help="Constrained-ZUPT-FGO's measData folder")
     args = ap.parse_args()
+    if args.xio or args.zupt_fgo:
+        if args.xio:
+            report_xio(args.xio)
+        if args.zupt_fgo:
+            report_zupt_fgo(args.zupt_fgo)
+        return
     root = data_dir()
     if not root.is_dir():
         sys.exit(f"datasets not found at {root} (set FIRENAV_SHARED_DATA)")

@@ -19,6 +19,14 @@ the agent, and the component's fault policy decides what happens next:
     The component gets no more messages at all.
 ``raise``
     The exception stops the run (for debugging).
+
+What counts as a fault of the component: any exception, ``SystemExit`` (a plugin calling
+``sys.exit()``), a ``KeyboardInterrupt`` the plugin raises itself (the user's own Ctrl-C
+is handled by the runner, see :mod:`firenav_framework.watchdog`), and the watchdog's
+:class:`~firenav_framework.watchdog.PluginTimeout` (a call past its time limit) and
+:class:`~firenav_framework.watchdog.PluginInterrupted` (a call cut short because the
+run is stopping; the component is then disabled).
+Every call into a component goes through the watchdog when the bus has one.
 """
 from __future__ import annotations
 
@@ -32,6 +40,7 @@ from typing import Literal
 from .contract import Component
 from .messages import Diagnostic, Message
 from .stats import RunStats
+from .watchdog import LIFECYCLE_FACTOR, PluginInterrupted, PluginTimeout, Watchdog
 
 log = logging.getLogger("firenav.bus")
 
@@ -45,6 +54,10 @@ class Subscription:
     policy: FaultPolicy = "disable_agent"
     agents: frozenset[str] | None = None  # None: every agent
     max_restarts: int = 3
+    watchdog: float | None = None  # time limit of one call [s]; None: not timed
+    #: every agent (and radio node) whose data the component has received, for the
+    #: runner's relabelling check
+    received: set[str] = field(default_factory=set)
 
 
 @dataclass
@@ -69,6 +82,8 @@ class Bus:
     faults: list[Fault] = field(default_factory=list)
     #: Called for every published message (recorders and monitors), before subscribers.
     taps: list[Callable[[str, Message], None]] = field(default_factory=list)
+    #: Times every call into a component (the runner sets it for the run).
+    watchdog: Watchdog | None = None
 
     def subscribe(self, stream: str, sub: Subscription) -> None:
         self._subs[stream].append(sub)
@@ -92,23 +107,52 @@ class Bus:
         if (cid, None) in self._disabled or (cid, agent) in self._disabled:
             self.stats.count(cid, "skipped_after_fault")
             return
+        if agent:
+            sub.received.add(agent)
+        for name in msg.node_fields:
+            sub.received.add(getattr(msg, name))
+        wd = self.watchdog
         try:
-            sub.component.handle(stream, msg)
-        except Exception as exc:
-            if sub.policy == "raise":
+            if wd is not None:
+                wd.enter(cid, sub.watchdog)
+            try:
+                sub.component.handle(stream, msg)
+            finally:
+                if wd is not None:
+                    wd.leave()
+        except BaseException as exc:
+            if sub.policy == "raise" or not self.contained(exc):
                 raise
             self.report_fault(sub, stream, msg, exc)
 
     def call(self, sub: Subscription, what: str, fn: Callable[[], None], t: float = 0.0) -> None:
-        """Run a lifecycle call (start/finish) under the same fault policy."""
+        """Run a lifecycle call (start/finish) under the same fault policy (and the
+        watchdog, with :data:`~firenav_framework.watchdog.LIFECYCLE_FACTOR` limits)."""
+        wd = self.watchdog
         try:
-            fn()
-        except Exception as exc:
-            if sub.policy == "raise":
+            if wd is not None:
+                wd.enter(sub.component.ctx.id, sub.watchdog and sub.watchdog * LIFECYCLE_FACTOR,
+                         what)
+            try:
+                fn()
+            finally:
+                if wd is not None:
+                    wd.leave()
+        except BaseException as exc:
+            if sub.policy == "raise" or not self.contained(exc):
                 raise
             self.report_fault(sub, what, Diagnostic(t=t, component="", level="", code="", text=""), exc)
 
-    def report_fault(self, sub: Subscription, stream: str, msg: Message, exc: Exception) -> None:
+    def contained(self, exc: BaseException) -> bool:
+        """Whether ``exc``, raised in a component, is that component's fault: an
+        exception, ``SystemExit``, the watchdog's interruptions, and a KeyboardInterrupt
+        unless the user's (only a runner with a watchdog tells them apart)."""
+        if isinstance(exc, KeyboardInterrupt):
+            return self.watchdog is not None and not self.watchdog.user_interrupt
+        return isinstance(exc, (Exception, SystemExit, PluginTimeout, PluginInterrupted))
+
+    def report_fault(self, sub: Subscription, stream: str, msg: Message,
+                     exc: BaseException) -> None:
         cid, agent = sub.component.ctx.id, msg.agent
         frame = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
         where = f"{frame.filename}:{frame.lineno}" if frame else "?"
@@ -117,16 +161,20 @@ class Bus:
             action = f"restarted for agent '{agent}' ({self._restarts[(cid, agent)]}/{sub.max_restarts})"
             try:
                 sub.component.reset(agent)
-            except Exception as reset_exc:  # a reset that fails ends the restarts
+            except BaseException as reset_exc:  # a reset that fails ends the restarts
+                if not self.contained(reset_exc):
+                    raise
                 action = f"reset failed ({reset_exc}); disabled for agent '{agent}'"
                 self._disabled.add((cid, agent))
-        elif sub.policy == "disable":
-            action = "disabled"
+        elif sub.policy == "disable" or isinstance(exc, PluginInterrupted):
+            action = "disabled"  # (cut short to stop the run: it gets nothing more)
             self._disabled.add((cid, None))
         else:
             action = f"disabled for agent '{agent}'" if agent else "disabled for unassigned data"
             self._disabled.add((cid, agent))
-        fault = Fault(cid, agent, stream, msg.t, f"{type(exc).__name__}: {exc}", where, action)
+        text = str(exc) or (self.watchdog.last_overrun() if self.watchdog is not None and
+                            isinstance(exc, (PluginTimeout, PluginInterrupted)) else "")
+        fault = Fault(cid, agent, stream, msg.t, f"{type(exc).__name__}: {text}", where, action)
         self.faults.append(fault)
         self.stats.count(cid, "faults")
         log.error("plugin '%s' raised %s while handling %s (agent '%s', t=%.3f) at %s; %s",

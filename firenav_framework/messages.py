@@ -15,8 +15,14 @@ Conventions used by every message (and therefore by every plugin):
   one, e.g. a breadcrumb-to-breadcrumb RSSI reading); ``device`` names the physical
   device that produced it.
 
-Messages are immutable dataclasses; array fields are numpy arrays that receivers
-must not modify in place.
+Messages are immutable dataclasses, and so are their arrays: every array field is made
+read-only when the message is constructed (a read-only view of the array given, so
+that is cheap), so a receiver that writes into one gets a ``ValueError`` (a fault of
+that receiver) instead of silently changing what every other receiver sees. A
+producer that keeps changing a buffer after publishing it must publish a copy. Shapes
+are checked at construction too (pose and truth positions (3,), covariances (4, 4), IMU
+blocks (N,) and (N, 3)), so a malformed message fails where it is made; an
+:class:`Odometry` increment is judged by its consumers' one rule, :meth:`Odometry.problem`.
 """
 from __future__ import annotations
 
@@ -29,12 +35,34 @@ import numpy as np
 
 __all__ = [
     "Message", "RawFrame", "ImuBlock", "Range", "RssiReading", "TagDetection",
-    "TagDeployment", "BreadcrumbDrop", "Odometry", "PoseEstimate", "Diagnostic",
-    "GroundTruth", "Tick", "MESSAGE_TYPES", "POSE_COV_AXES", "IMU_FLAG_BITS",
+    "TagDeployment", "BreadcrumbDrop", "Odometry", "PoseEstimate", "PressureHeight",
+    "Diagnostic", "GroundTruth", "Tick", "MESSAGE_TYPES", "POSE_COV_AXES", "IMU_FLAG_BITS",
 ]
 
 #: Order of the axes in the 4x4 covariance carried by Odometry and PoseEstimate.
 POSE_COV_AXES = ("x", "y", "z", "heading")
+
+
+def _readonly(msg: "Message", name: str, shape: tuple[int | None, ...] | None = None,
+              what: str = "") -> np.ndarray | None:
+    """Replace array field ``name`` of ``msg`` by a read-only view, checking its shape
+    (``None`` in ``shape``: any length); a None value is left alone."""
+    value = getattr(msg, name)
+    if value is None:
+        return None
+    if not isinstance(value, np.ndarray):
+        value = np.asarray(value, dtype=float)
+    if value.flags.writeable:
+        value = value.view()
+        value.flags.writeable = False
+    if shape is not None and (value.ndim != len(shape) or any(
+            want is not None and got != want for got, want in zip(value.shape, shape))):
+        expect = "(" + ", ".join("N" if w is None else str(w) for w in shape) + \
+            ("," if len(shape) == 1 else "") + ")"
+        raise ValueError(f"{what or type(msg).__name__} {name} has shape {value.shape}, "
+                         f"expected {expect}")
+    object.__setattr__(msg, name, value)
+    return value
 
 
 def _digest_value(h: "hashlib._Hash", value: Any) -> None:
@@ -60,6 +88,9 @@ class Message:
     #: True for data that arrive at a steady rate, where a silence means trouble (the
     #: timeline reports gaps only for these); events such as a tag read are not.
     periodic: ClassVar[bool] = False
+    #: Fields naming radio nodes (anchors, breadcrumbs, firefighters' radios) that an
+    #: estimator may publish poses of, besides the agents of its input.
+    node_fields: ClassVar[tuple[str, ...]] = ()
 
     def shifted(self, dt: float) -> "Message":
         """The same message with every time field moved by ``dt`` seconds."""
@@ -126,15 +157,16 @@ class ImuBlock(Message):
     periodic: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
-        n = len(self.time)
+        n = len(_readonly(self, "time", (None,)))
         if n == 0:
             raise ValueError("an ImuBlock needs at least one sample")
-        if self.accel.shape != (n, 3) or self.gyro.shape != (n, 3):
+        accel, gyro = _readonly(self, "accel"), _readonly(self, "gyro")
+        if accel.shape != (n, 3) or gyro.shape != (n, 3):
             raise ValueError(
                 f"ImuBlock arrays disagree: time has {n} samples, accel "
-                f"{self.accel.shape}, gyro {self.gyro.shape}; expected ({n}, 3)")
-        if self.mag is not None and self.mag.shape != (n, 3):
-            raise ValueError(f"ImuBlock mag has shape {self.mag.shape}, expected ({n}, 3)")
+                f"{accel.shape}, gyro {gyro.shape}; expected ({n}, 3)")
+        _readonly(self, "mag", (n, 3))
+        _readonly(self, "flags", (n,))
 
     @classmethod
     def from_arrays(cls, time: np.ndarray, accel: np.ndarray, gyro: np.ndarray,
@@ -171,6 +203,7 @@ class Range(Message):
     method: str = "uwb"
     nlos: bool = False
     kind: ClassVar[str] = "range"
+    node_fields: ClassVar[tuple[str, ...]] = ("a", "b")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -181,6 +214,7 @@ class RssiReading(Message):
     rx: str
     rssi_dbm: float
     kind: ClassVar[str] = "rssi"
+    node_fields: ClassVar[tuple[str, ...]] = ("tx", "rx")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -208,9 +242,11 @@ class BreadcrumbDrop(Message):
 
     node_id: str
     kind: ClassVar[str] = "breadcrumb_drop"
+    node_fields: ClassVar[tuple[str, ...]] = ("node_id",)
 
 
-def _check_cov4(cov: np.ndarray, what: str) -> None:
+def _check_cov4(msg: "Message", what: str) -> None:
+    cov = _readonly(msg, "cov")
     if cov.shape != (4, 4):
         raise ValueError(f"{what} covariance must be 4x4 over (x, y, z, heading), got {cov.shape}")
 
@@ -238,7 +274,9 @@ class Odometry(Message):
     kind: ClassVar[str] = "odometry"
 
     def __post_init__(self) -> None:
-        _check_cov4(self.cov, "Odometry")
+        _check_cov4(self, "Odometry")
+        _readonly(self, "delta")      # shapes: judged by problem(), the one rule
+        _readonly(self, "position")
 
     def shifted(self, dt: float) -> "Odometry":
         return dataclasses.replace(self, t=self.t + dt, t_start=self.t_start + dt)
@@ -291,7 +329,37 @@ class PoseEstimate(Message):
     kind: ClassVar[str] = "pose"
 
     def __post_init__(self) -> None:
-        _check_cov4(self.cov, "PoseEstimate")
+        _check_cov4(self, "PoseEstimate")
+        _readonly(self, "position", (3,))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class PressureHeight(Message):
+    """The height of ``agent``'s barometer from static pressure, in the building's z.
+
+    ``height`` [m] is a z of the building frame (the ``position[2]`` of a building-frame
+    :class:`PoseEstimate`, the levels of ``Floor.z``): the height above the level where
+    the barometer was zeroed (``zero_level``, the entrance floor's z) plus that level.
+    ``sigma`` [m] is its 1-sigma uncertainty: reading noise, the zeroing, the reference's
+    noise and its drift since it was last heard, and the pressure difference between
+    inside and the reference that the zeroing cannot remove (fire, doors, ventilation).
+    ``pressure`` [Pa] is the firefighter's static pressure (mean over the report's
+    interval, ``t - interval`` to ``t``); ``reference_pressure`` [Pa] the pressure at
+    the zeroing level it was compared with (the reference barometer at the entrance or
+    base station, corrected by the zeroing offset; without a reference, the pressure
+    at zeroing), ``reference_age`` [s] how old that reference is (0: heard within the
+    interval). Heights are only published once the barometer is zeroed.
+    """
+
+    height: float
+    sigma: float
+    pressure: float
+    reference_pressure: float
+    reference_age: float = 0.0
+    interval: float = 0.0
+    zero_level: float = 0.0
+    kind: ClassVar[str] = "pressure_height"
+    periodic: ClassVar[bool] = True
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -327,6 +395,9 @@ class GroundTruth(Message):
     kind: ClassVar[str] = "ground_truth"
     periodic: ClassVar[bool] = True
 
+    def __post_init__(self) -> None:
+        _readonly(self, "position", (3,))
+
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class Tick(Message):
@@ -339,5 +410,5 @@ class Tick(Message):
 MESSAGE_TYPES: dict[str, type[Message]] = {
     cls.kind: cls for cls in (RawFrame, ImuBlock, Range, RssiReading, TagDetection,
                               TagDeployment, BreadcrumbDrop, Odometry, PoseEstimate,
-                              Diagnostic, GroundTruth, Tick)
+                              PressureHeight, Diagnostic, GroundTruth, Tick)
 }

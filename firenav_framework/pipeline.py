@@ -13,11 +13,14 @@ A pipeline is a YAML file::
     sinks:      [ {plugin: csv_tracks, input: ins.pose} ]
 
 Every component item has the common keys ``id`` (defaults to the plugin name),
-``plugin``, ``input`` (a stream or a list of streams; ``comp.port``, or ``comp`` when
+``plugin`` (a name; ``name@package`` picks that installed package's plugin of the
+name instead of the one the name means, a built-in's first), ``input`` (a stream or a list of streams; ``comp.port``, or ``comp`` when
 it has one output port; shell-style wildcards allowed for sinks, matching every stream
 but other sinks' own), ``agents`` (only
-these firefighters) and ``on_error`` (fault policy); all other keys are the plugin's
-parameters. Only safe YAML is read and plugins are looked up by name in the
+these firefighters), ``on_error`` (fault policy) and ``watchdog`` (seconds one call
+into the plugin may take before it is interrupted and handled as a fault, 0: never;
+the pipeline's top-level ``watchdog`` sets the default, else 60 s; see
+:mod:`firenav_framework.watchdog`); all other keys are the plugin's parameters. Only safe YAML is read and plugins are looked up by name in the
 registry: a pipeline can never import arbitrary code.
 """
 from __future__ import annotations
@@ -25,26 +28,28 @@ from __future__ import annotations
 import copy
 import difflib
 import fnmatch
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
 from pydantic import ValidationError
 
 from .bus import FAULT_POLICIES
 from .contract import Component, Params
+from .contract.sink import output_name_problem
 from .contract.context import PIPELINE_DIR
 from .messages import Diagnostic, Message
 from .plugin_docs import fields_at
-from .registry import PluginInfo, Registry, default_registry
+from .registry import PluginInfo, Registry, default_registry, split_pin
 from .timeline import TimelineConfig
+from .watchdog import DEFAULT_LIMIT_S
 from .yaml_locations import ConfigError, LocatedDocument, Problem, format_path, load, loads
 
 SECTIONS = {"sources": "source", "sensors": "sensor", "estimators": "estimator",
             "sinks": "sink"}
-TOP_KEYS = ("name", "description", "building", "timeline", "on_error", *SECTIONS)
-COMMON_KEYS = ("id", "plugin", "input", "agents", "on_error")
+TOP_KEYS = ("name", "description", "building", "timeline", "on_error", "watchdog", *SECTIONS)
+COMMON_KEYS = ("id", "plugin", "input", "agents", "on_error", "watchdog")
 
 
 @dataclass
@@ -59,6 +64,7 @@ class ComponentSpec:
     inputs: list[str] = field(default_factory=list)
     agents: frozenset[str] | None = None
     on_error: str = "disable_agent"
+    watchdog: float | None = DEFAULT_LIMIT_S  # time limit of one call [s]; None: not timed
     parent: str | None = None  # the estimator a constraint is attached to
     outputs: dict[str, type[Message]] = field(default_factory=dict)
 
@@ -79,6 +85,8 @@ class PipelineSpec:
     timeline: TimelineConfig
     components: list[ComponentSpec]
     document: LocatedDocument
+    #: located notes that do not stop the pipeline (printed by validate and run)
+    warnings: list[Problem] = field(default_factory=list)
 
     def by_id(self, cid: str) -> ComponentSpec:
         return next(c for c in self.components if c.id == cid)
@@ -109,9 +117,10 @@ def parse_override(expr: str) -> tuple[list[str], Any]:
     if not all(parts):
         raise ConfigError([Problem("--set", None, None, expr, "empty part in the key path")])
     try:
-        parsed = yaml.safe_load(value) if value.strip() else ""
-    except yaml.YAMLError as exc:
-        raise ConfigError([Problem("--set", None, None, expr, f"bad value: {exc}")]) from None
+        parsed = loads(value, "--set").data if value.strip() else ""
+    except ConfigError as exc:
+        raise ConfigError([Problem("--set", None, None, expr, f"bad value: {p.message}")
+                           for p in exc.problems]) from None
     return parts, parsed
 
 
@@ -191,6 +200,8 @@ class _Validator:
         self.registry = registry
         self.overrides = overrides
         self.problems: list[Problem] = []
+        #: what is worth saying but does not stop the pipeline (a shadowed plugin name)
+        self.warnings: list[Problem] = []
         #: ids of components that failed validation: references to them are not re-reported
         self.failed: set[str] = set()
 
@@ -200,6 +211,35 @@ class _Validator:
                 self.problems.append(Problem("--set", None, None, expr, message))
                 return
         self.problems.append(self.doc.problem(path, message))
+
+    def time_limit(self, value: Any, path: tuple) -> float | None:
+        """A ``watchdog`` value: seconds > 0, or 0 / null for no limit."""
+        if value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)
+                             and value == 0):
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value) or value < 0:
+            self.problem(path, "watchdog must be a number of seconds (0: no limit)")
+            return DEFAULT_LIMIT_S
+        return float(value)
+
+    def unknown_plugin(self, kind: str, name: str, pin: str | None) -> str:
+        """Why no plugin answers to ``name`` (``@pin``): the closest names, or its
+        import failure, or which packages offer it."""
+        if pin is not None:
+            default = self.registry.get(kind, name)
+            offers = ([default.package] if default else []) + self.registry.offered_by(kind, name)
+            return (f"no package '{pin}' offers {kind} plugin '{name}'" +
+                    (f"; offered by {', '.join(offers)}" if offers else ""))
+        failure = self.registry.load_problem(kind, name)
+        if failure:
+            return f"{kind} plugin '{name}' failed to load: {failure}"
+        others = [p for p in self.registry.find(name)]
+        hint = (f"; '{name}' is a {others[0].kind} plugin, not a {kind}" if others
+                else _did_you_mean(name, self.registry.names(kind)))
+        if not hint:
+            hint = f"; known {kind} plugins: {', '.join(self.registry.names(kind)) or 'none'}"
+        return f"unknown {kind} plugin '{name}'{hint}"
 
     def pydantic_problems(self, base: tuple, exc: ValidationError, model: type) -> None:
         for err in exc.errors():
@@ -222,16 +262,17 @@ class _Validator:
             if isinstance(item.get("id"), str):
                 self.failed.add(item["id"])
             return None
-        info = self.registry.get(kind, name)
+        name, pin = split_pin(name)
+        info = self.registry.get(kind, name, package=pin)
         if info is None:
             self.failed.add(item.get("id", name) if isinstance(item.get("id", name), str) else name)
-            others = [p for p in self.registry.find(name)]
-            hint = (f"; '{name}' is a {others[0].kind} plugin, not a {kind}" if others
-                    else _did_you_mean(name, self.registry.names(kind)))
-            if not hint:
-                hint = f"; known {kind} plugins: {', '.join(self.registry.names(kind)) or 'none'}"
-            self.problem(path + ("plugin",), f"unknown {kind} plugin '{name}'{hint}")
+            self.problem(path + ("plugin",), self.unknown_plugin(kind, name, pin))
             return None
+        offers = self.registry.offered_by(kind, name)
+        if pin is None and offers:
+            self.warnings.append(self.doc.problem(
+                path + ("plugin",), f"'{name}' is also offered by {', '.join(offers)}; "
+                f"{info.package}'s is used (write '{name}@<package>' to choose another)"))
         cls = info.cls
         cid = item.get("id", name)
         if not isinstance(cid, str) or not cid or "." in cid or "*" in cid:
@@ -248,6 +289,8 @@ class _Validator:
                                    or not all(isinstance(a, str) for a in agents)):
             self.problem(path + ("agents",), "agents must be a list of firefighter ids")
             agents = None
+        watchdog = self.time_limit(item.get("watchdog", self.default_watchdog),
+                                   path + ("watchdog",))
         on_error = item.get("on_error", self.default_policy)
         if on_error not in FAULT_POLICIES:
             self.problem(path + ("on_error",), f"on_error must be one of {', '.join(FAULT_POLICIES)}")
@@ -269,7 +312,8 @@ class _Validator:
             return None
         return ComponentSpec(id=cid, kind=kind, plugin=info, params=params, path=path,
                              inputs=inputs, agents=frozenset(agents) if agents else None,
-                             on_error=on_error, parent=parent, outputs=outputs)
+                             on_error=on_error, watchdog=watchdog, parent=parent,
+                             outputs=outputs)
 
     def run(self) -> tuple[list[ComponentSpec], TimelineConfig, str]:
         data = self.doc.data
@@ -279,6 +323,13 @@ class _Validator:
         for key in data:
             if key not in TOP_KEYS:
                 self.problem((key,), f"unknown section{_did_you_mean(str(key), list(TOP_KEYS))}")
+        name = data.get("name")
+        if name is not None and (not isinstance(name, str) or output_name_problem(name)
+                                 or "/" in name or "\\" in name or name == "."):
+            self.problem(("name",), f"name {name!r} must be a plain name (no '/', no '..'): "
+                         "it names the default output folder out/<name>")
+        self.default_watchdog = self.time_limit(data.get("watchdog", DEFAULT_LIMIT_S),
+                                                ("watchdog",))
         self.default_policy = data.get("on_error", "disable_agent")
         if self.default_policy not in FAULT_POLICIES:
             self.problem(("on_error",), f"on_error must be one of {', '.join(FAULT_POLICIES)}")
@@ -458,7 +509,7 @@ def validate_document(doc: LocatedDocument, *, registry: Registry | None = None,
     return PipelineSpec(name=name or Path(doc.file).stem,
                         description=str(data.get("description") or ""), file=doc.file,
                         base_dir=base_dir, building=building, timeline=timeline,
-                        components=specs, document=doc)
+                        components=specs, document=doc, warnings=v.warnings)
 
 
 def load_pipeline(path: str | Path, overrides: list[str] = (), *,

@@ -16,19 +16,24 @@ vendor package can):
     such module is imported when the registry is loaded. ``check_pending`` catches
     misspelled hooks.
 
-Every import is contained: a package that fails (any exception, ``SystemExit``
-included) is reported by ``firenav plugins list`` and ``firenav validate`` and
-skipped; the other plugins still load. The first registration of a (kind, name)
-wins, and built-ins register first: another package offering the same name is
-refused with a message, never silently used instead.
+Every import is contained (:mod:`firenav_framework.safe_import`): a package that
+fails (any exception, ``SystemExit`` or ``KeyboardInterrupt`` included) or hangs at
+import (``$FIRENAV_IMPORT_TIMEOUT``, 30 s) is reported by ``firenav plugins list`` and
+``firenav validate`` and skipped; the other plugins still load.
+
+Names are protected: the first registration of a (kind, name) is the plugin that name
+means, and built-ins register first. Another package offering the same name is never
+used instead, and never imported for it: it is listed as an *offer*, ``validate`` and
+``run`` warn about it where a pipeline uses that name, and a pipeline that wants it says
+so explicitly by pinning the package: ``plugin: zupt_ins@acme-firenav``.
 """
 from __future__ import annotations
 
 import functools
-import importlib
 import importlib.metadata as md
 import inspect
 import logging
+import re
 from dataclasses import dataclass, field
 
 import pluggy
@@ -37,6 +42,7 @@ from pydantic import BaseModel
 from .contract import hookspecs
 from .contract.component import Component
 from .contract.kinds import KIND_BASES, KINDS
+from .safe_import import PluginImportError, call_contained, import_object
 
 log = logging.getLogger("firenav.registry")
 
@@ -71,6 +77,17 @@ class _Lazy:
     version: str
 
 
+def package_key(package: str) -> str:
+    """A distribution name compared the way pip does (``Acme_Firenav`` = ``acme-firenav``)."""
+    return re.sub(r"[-_.]+", "-", package).lower()
+
+
+def split_pin(plugin: str) -> tuple[str, str | None]:
+    """``"zupt_ins@acme-firenav"`` -> ("zupt_ins", "acme-firenav"); no pin -> (name, None)."""
+    name, sep, package = plugin.partition("@")
+    return (name, package) if sep else (plugin, None)
+
+
 @dataclass
 class Registry:
     """All known plugins by kind and name, plus the problems met while loading them."""
@@ -78,6 +95,9 @@ class Registry:
     plugins: dict[tuple[str, str], PluginInfo] = field(default_factory=dict)
     errors: list[str] = field(default_factory=list)
     _lazy: dict[tuple[str, str], list[_Lazy]] = field(default_factory=dict)
+    #: Other packages' offers of a taken name, by (kind, name): lazy refs or classes.
+    _offers: dict[tuple[str, str], list[_Lazy | PluginInfo]] = field(default_factory=dict)
+    _failed: dict[tuple[str, str], str] = field(default_factory=dict)
 
     def add(self, cls: type, *, package: str = "", version: str = "") -> None:
         """Register one component class, recording (not raising) anything wrong with it."""
@@ -88,9 +108,11 @@ class Registry:
         key = (cls.kind, cls.name)
         if key in self.plugins or self._lazy.get(key):
             first = self.plugins.get(key) or self._lazy[key][0]
-            self.errors.append(
-                f"{package}: {cls.kind} plugin '{cls.name}' is already provided by "
-                f"{first.package}; keeping that one")
+            if package_key(package) == package_key(first.package):
+                self.errors.append(f"{package}: {cls.kind} plugin '{cls.name}' is already "
+                                   f"provided by {first.package}; keeping that one")
+                return
+            self._offer(key, PluginInfo(cls.name, cls.kind, cls, package, version), first)
             return
         self.plugins[key] = PluginInfo(cls.name, cls.kind, cls, package, version)
 
@@ -101,29 +123,77 @@ class Registry:
             self.errors.append(f"{package}: entry point '{ep.name}' must be named "
                                f"<kind>.<name> with kind one of {', '.join(KINDS)}")
             return
-        self._lazy.setdefault((kind, name), []).append(_Lazy(kind, name, ep, package, version))
+        key = (kind, name)
+        ref = _Lazy(kind, name, ep, package, version)
+        first = self.plugins.get(key) or (self._lazy.get(key) or [None])[0]
+        if first is not None and package_key(package) != package_key(first.package):
+            self._offer(key, ref, first)
+            return
+        self._lazy.setdefault(key, []).append(ref)
+
+    def _offer(self, key: tuple[str, str], offer: "_Lazy | PluginInfo",
+               first: "_Lazy | PluginInfo") -> None:
+        self._offers.setdefault(key, []).append(offer)
+        self.errors.append(
+            f"{offer.package}: also offers {key[0]} plugin '{key[1]}', which "
+            f"{first.package} provides; not used unless a pipeline names it "
+            f"'{key[1]}@{offer.package}'")
 
     def _load(self, key: tuple[str, str]) -> None:
         for ref in self._lazy.pop(key, []):
-            cls = _import(ref.entry_point, ref.package, self.errors)
-            if cls is None:
-                continue
-            if isinstance(cls, type) and issubclass(cls, Component) and \
-                    (cls.kind, cls.name) != key:
-                self.errors.append(f"{ref.package}: entry point '{ref.entry_point.name}' "
-                                   f"loads {cls.kind} plugin '{cls.name}'")
-                continue
-            self.add(cls, package=ref.package, version=ref.version)
+            cls = self._import_ref(ref)
+            if cls is not None:
+                self.add(cls, package=ref.package, version=ref.version)
+
+    def _import_ref(self, ref: _Lazy) -> type | None:
+        cls = _import(ref.entry_point, ref.package, self.errors)
+        if cls is None:
+            self._failed[(ref.kind, ref.name)] = self.errors[-1]
+            return None
+        if isinstance(cls, type) and issubclass(cls, Component) and \
+                (cls.kind, cls.name) != (ref.kind, ref.name):
+            self.errors.append(f"{ref.package}: entry point '{ref.entry_point.name}' "
+                               f"loads {cls.kind} plugin '{cls.name}'")
+            return None
+        return cls  # type: ignore[return-value]
 
     def load_all(self) -> None:
         """Import every registered plugin (for listings)."""
         for key in sorted(self._lazy):
             self._load(key)
 
-    def get(self, kind: str, name: str) -> PluginInfo | None:
+    def get(self, kind: str, name: str, package: str | None = None) -> PluginInfo | None:
+        """The plugin ``name`` of ``kind``; with ``package``, that package's offer of it
+        (the explicit choice of a pipeline's ``plugin: name@package``)."""
         if (kind, name) not in self.plugins:
             self._load((kind, name))
-        return self.plugins.get((kind, name))
+        info = self.plugins.get((kind, name))
+        if package is None or (info is not None and
+                               package_key(info.package) == package_key(package)):
+            return info
+        offers = self._offers.get((kind, name), [])
+        for i, offer in enumerate(offers):
+            if package_key(offer.package) != package_key(package):
+                continue
+            if isinstance(offer, _Lazy):
+                cls = self._import_ref(offer)
+                problem = None if cls is None else plugin_class_problem(cls)
+                if cls is None or problem:
+                    if problem:
+                        self.errors.append(f"{offer.package}: {problem}")
+                    del offers[i]
+                    return None
+                offer = offers[i] = PluginInfo(name, kind, cls, offer.package, offer.version)
+            return offer
+        return None
+
+    def offered_by(self, kind: str, name: str) -> list[str]:
+        """The other packages that offer ``name`` (used only when pinned)."""
+        return [o.package for o in self._offers.get((kind, name), [])]
+
+    def load_problem(self, kind: str, name: str) -> str | None:
+        """Why plugin ``name`` of ``kind`` failed to load, if it did."""
+        return self._failed.get((kind, name))
 
     def names(self, kind: str | None = None) -> list[str]:
         """Names of the registered plugins (of one kind), imported or not."""
@@ -173,20 +243,13 @@ def plugin_class_problem(cls: object) -> str | None:
 
 def _import(ep: md.EntryPoint, package: str, errors: list[str]) -> object | None:
     """The object an entry point names (``module`` or ``module:attr``), with every failure
-    reported instead of raised."""
-    target = ep.value
-    module, _, attr = target.partition(":")
+    (a hang at import included) reported instead of raised."""
     try:
-        obj = importlib.import_module(module)
-        for part in attr.split(".") if attr else ():
-            obj = getattr(obj, part)
-        return obj
-    except KeyboardInterrupt:
-        raise
-    except BaseException as exc:  # a broken package (even one calling sys.exit) is skipped
-        errors.append(f"{package}: entry point '{ep.name} = {target}' failed to load: "
-                      f"{type(exc).__name__}: {exc}")
-        log.warning("skipping plugin %s: %s", target, exc)
+        return import_object(ep.value)
+    except PluginImportError as exc:
+        errors.append(f"{package}: entry point '{ep.name} = {ep.value}' failed to load: "
+                      f"{exc.detail}")
+        log.warning("skipping plugin %s: %s", ep.value, exc.detail)
         return None
 
 
@@ -244,12 +307,9 @@ def _load_hook_modules(registry: Registry, entry_points: list[md.EntryPoint]) ->
     for impl in reversed(pm.hook.firenav_plugins.get_hookimpls()):
         package, version = origin.get(impl.plugin_name, (impl.plugin_name, ""))
         try:
-            classes = impl.function()
-        except KeyboardInterrupt:
-            raise
-        except BaseException as exc:
-            registry.errors.append(f"{package}: firenav_plugins() raised "
-                                   f"{type(exc).__name__}: {exc}")
+            classes = call_contained(impl.function, f"{package}: firenav_plugins()")
+        except PluginImportError as exc:
+            registry.errors.append(str(exc))
             continue
         for cls in classes or ():
             registry.add(cls, package=package, version=version)

@@ -14,6 +14,7 @@ import logging
 import math
 import os
 import queue
+import signal
 import threading
 import time
 from collections.abc import Iterator
@@ -28,8 +29,11 @@ from .execution import AgentLanes, Backpressure, lane_components
 from .messages import Diagnostic, Message
 from .pipeline import PipelineSpec
 from .stats import RunStats
+from .timefmt import clock_text
+from .time_merge import merge_in_time
 from .timeline import Timeline
 from .tracks import Track, TrackStore
+from .watchdog import Watchdog
 
 log = logging.getLogger("firenav.runner")
 
@@ -88,7 +92,7 @@ class _Progress:
         if now < self.next:
             return
         self.next = now + self.every
-        line = f"[firenav] t={t:.1f} s"
+        line = f"[firenav] {clock_text(t)}"  # a live link's clock as the local time
         if self.span and self.span[1] > self.span[0]:
             frac = min(1.0, max(0.0, (t - self.span[0]) / (self.span[1] - self.span[0])))
             line += f" of {self.span[1] - self.span[0]:.0f} s ({100 * frac:.0f}%)"
@@ -102,10 +106,10 @@ class Runner:
     def __init__(self, spec: PipelineSpec, *, output_dir: Path | None = None,
                  realtime: bool = False, speed: float = 1.0,
                  progress: TextIO | None = None, progress_every: float = 2.0,
-                 workers: int = 0, backpressure: bool = True):
+                 workers: int = 0, backpressure: bool = True, hard_exit: bool = False):
         """``workers``: threads for the per-firefighter work of components that allow it
         (0: none); ``backpressure``: in live runs, degrade firefighters while the kit is
-        behind (:mod:`.execution`)."""
+        behind (:mod:`.execution`); ``hard_exit``: see :mod:`.watchdog`."""
         self.spec = spec
         self.output_dir = output_dir
         self.realtime = realtime
@@ -113,7 +117,9 @@ class Runner:
         self.progress_stream = progress
         self.progress_every = progress_every
         self.stats = RunStats()
-        self.bus = Bus(stats=self.stats)
+        #: times every plugin call; ``hard_exit``: end the process when native code hangs
+        self.watchdog = Watchdog(hard_exit=hard_exit)
+        self.bus = Bus(stats=self.stats, watchdog=self.watchdog)
         self.timeline = Timeline(spec.timeline, self.stats)
         self.store = TrackStore()
         self.diagnostics: list[Diagnostic] = []
@@ -126,6 +132,7 @@ class Runner:
         self.use_backpressure = backpressure
         self.lanes: AgentLanes | None = None
         self.backpressure: Backpressure | None = None
+        self._relabels: set[tuple[str, str]] = set()
 
     # -- construction ---------------------------------------------------------------
     def _load_building(self) -> Any:
@@ -169,7 +176,29 @@ class Runner:
         if port not in spec.outputs:
             raise ValueError(f"'{cid}' ({spec.plugin.name}) published on undeclared port "
                              f"'{port}'; its ports are {', '.join(spec.outputs)}")
+        if msg.agent and spec.kind != "source" and not isinstance(msg, Diagnostic):
+            received = self.subs[cid].received
+            owner = msg.device.partition("/")[0] if "/" in msg.device else ""
+            if received and (msg.agent not in received or (
+                    owner and owner != msg.agent and owner in received)):
+                self._relabelled(cid, msg, received)
         self.bus.publish(f"{cid}.{port}", msg)
+
+    def _relabelled(self, cid: str, msg: Message, received: set[str]) -> None:
+        """A component published for an agent it never received data of, or published
+        another agent's device under this agent: say so once (and count every time)."""
+        self.stats.count(cid, "agent_relabelled")
+        if (cid, msg.agent) in self._relabels:
+            return
+        self._relabels.add((cid, msg.agent))
+        what = (f"device '{msg.device}' of another firefighter" if msg.agent in received
+                else f"data only of {', '.join(sorted(received))}")
+        text = (f"'{cid}' published a {type(msg).__name__} of agent '{msg.agent}' but has "
+                f"received {what}: it relabels agents (expected only where its parameters "
+                "map devices to agents)")
+        log.warning(text)
+        self.diagnostics.append(Diagnostic(t=msg.t, agent=msg.agent, component="runner",
+                                           level="warning", code="agent_relabelled", text=text))
 
     def build(self) -> None:
         self._specs = {c.id: c for c in self.spec.components}
@@ -185,7 +214,8 @@ class Runner:
                 raise PipelineBuildError(f"{where}: cannot set up '{cs.id}' "
                                          f"({cs.plugin.name}): {exc}") from exc
             self.components[cs.id] = comp
-            sub = Subscription(comp, policy=cs.on_error, agents=cs.agents)  # type: ignore[arg-type]
+            sub = Subscription(comp, policy=cs.on_error, agents=cs.agents,  # type: ignore[arg-type]
+                               watchdog=cs.watchdog)
             self.subs[cs.id] = sub
             for stream in cs.inputs:
                 self.bus.subscribe(stream, sub)
@@ -234,11 +264,32 @@ class Runner:
     def run(self) -> RunResult:
         from threadpoolctl import threadpool_limits
         token = PIPELINE_DIR.set(self.spec.base_dir)
+        limits = [c.watchdog for c in self.spec.components if c.watchdog]
+        self.watchdog.start(max(limits, default=0.0))
+        saved = {}
+        if threading.current_thread() is threading.main_thread():
+            saved = {sig: signal.signal(sig, self._on_stop_signal)
+                     for sig in (signal.SIGTERM, signal.SIGINT)}
         try:
             with threadpool_limits(limits=blas_threads(), user_api="blas"):
                 return self._run()
         finally:
+            self.watchdog.stop()
+            for sig, handler in saved.items():
+                signal.signal(sig, handler)
             PIPELINE_DIR.reset(token)
+
+    def _on_stop_signal(self, signum: int, frame: Any) -> None:
+        """SIGTERM or Ctrl-C: end the run cleanly (sources stop, what arrived is used,
+        every plugin finishes); a plugin call that does not return within
+        ``STOP_GRACE_S`` is cut short. A second Ctrl-C aborts at once."""
+        if signum == signal.SIGINT and self._stop.is_set():
+            self.watchdog.user_interrupt = True
+            raise KeyboardInterrupt
+        log.warning("%s: stopping the run (flushing what has arrived)",
+                    signal.Signals(signum).name)
+        self.stop()
+        self.watchdog.hurry()
 
     def _building_if_any(self) -> Any:
         try:
@@ -264,10 +315,9 @@ class Runner:
                 self._run_live(sources, progress)
             else:
                 self._run_offline(sources, progress)
-        except KeyboardInterrupt:
-            log.warning("interrupted: flushing what has arrived")
+        except KeyboardInterrupt:  # a second Ctrl-C (see _on_stop_signal): abort
             self.stop()
-            self._dispatch(self.timeline.release(flush=True), progress)
+            raise
         for cid, comp in self.components.items():
             if self.lanes is not None:   # what the workers hold goes out before finish
                 self.lanes.sync()
@@ -283,37 +333,43 @@ class Runner:
             t_first=self._t_first, t_last=self._t_last, wall_s=time.monotonic() - wall0,
             components=self.components, building=self._building_if_any())
 
-    def _source_iter(self, cid: str, src: Source) -> Iterator[tuple[str, Message]]:
-        """A source's messages as (stream, message); a failing source is a contained fault."""
+    def _source_iter(self, cid: str, src: Source, timed: bool = True
+                     ) -> Iterator[tuple[str, Message]]:
+        """A source's messages as (stream, message); a failing source is a contained fault.
+        ``timed``: each next message is a watchdog-timed call (not for live sources,
+        which block in their own threads by design)."""
         it = src.messages()
+        sub, wd = self.subs[cid], self.watchdog
         while True:
             try:
-                port, msg = next(it)
+                if timed:
+                    wd.enter(cid, sub.watchdog, "messages")
+                try:
+                    port, msg = next(it)
+                finally:
+                    if timed:
+                        wd.leave()
             except StopIteration:
                 return
-            except Exception as exc:
-                if self.subs[cid].policy == "raise":
+            except BaseException as exc:
+                if sub.policy == "raise" or not self.bus.contained(exc):
                     raise
-                self.bus.report_fault(self.subs[cid], f"{cid}.messages",
-                                Diagnostic(t=self._t_last or 0.0, component=cid, level="",
-                                           code="", text=""), exc)
+                self.bus.report_fault(sub, f"{cid}.messages",
+                                      Diagnostic(t=self._t_last or 0.0, component=cid, level="",
+                                                 code="", text=""), exc)
                 return
             yield f"{cid}.{port}", msg
 
     def _run_offline(self, sources: list[tuple[str, Source]], progress: _Progress) -> None:
-        heads: list[tuple[float, int, str, Message, Iterator]] = []
-        for i, (cid, src) in enumerate(sources):
-            it = self._source_iter(cid, src)
-            first = next(it, None)
-            if first is not None:
-                heapq.heappush(heads, (first[1].t, i, first[0], first[1], it))
-        while heads and not self._stop.is_set():
-            _, i, stream, msg, it = heapq.heappop(heads)
+        cfg = self.spec.timeline
+        merged = merge_in_time([self._source_iter(cid, src) for cid, src in sources],
+                               time_of=lambda item: item[1].t, max_lead=cfg.max_lead,
+                               jump_back=max(cfg.clock_jump, cfg.reorder_window))
+        for stream, msg in merged:
             self.timeline.push(stream, msg)
-            nxt = next(it, None)
-            if nxt is not None:
-                heapq.heappush(heads, (nxt[1].t, i, nxt[0], nxt[1], it))
             self._dispatch(self.timeline.release(), progress)
+            if self._stop.is_set():
+                break
         self._dispatch(self.timeline.release(flush=True), progress)
 
     def _run_live(self, sources: list[tuple[str, Source]], progress: _Progress) -> None:
@@ -322,7 +378,7 @@ class Runner:
 
         def pump(cid: str, src: Source) -> None:
             try:
-                for item in self._source_iter(cid, src):
+                for item in self._source_iter(cid, src, timed=False):
                     q.put((time.monotonic(), item))
                     if self._stop.is_set():
                         break

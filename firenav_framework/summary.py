@@ -5,6 +5,7 @@ import math
 
 from .evaluation import error_stats, horizontal_errors
 from .runner import RunResult
+from .timefmt import clock_text
 
 
 def summary_dict(result: RunResult) -> dict:
@@ -44,7 +45,7 @@ def format_summary(result: RunResult) -> str:
     counted = [(c, k, n) for c, kv in d["counts"].items() for k, n in kv.items() if k != "faults"]
     lines += [f"  {c}: {k} {n}" for c, k, n in counted] or ["  none"]
     lines += ["", "Plugin faults:"]
-    lines += [f"  {f['component']} (agent '{f['agent']}', t={f['t']:.2f} s): {f['error']}; "
+    lines += [f"  {f['component']} (agent '{f['agent']}', {clock_text(f['t'])}): {f['error']}; "
               f"{f['action']}" for f in d["faults"]] or ["  none"]
     lines += ["", "Tracks:"]
     lines += [f"  {s}  {a}: {v['poses']} poses, {v['length_m']:.1f} m"

@@ -24,10 +24,21 @@ order. The rules below are applied per *channel*: one stream of one device.
     periodic data (IMU blocks, raw frames, ground truth: ``Message.periodic``) is a
     gap: the data are kept and a ``gap`` diagnostic is issued. Event streams (tag
     reads, drops) are silent most of the time and are not checked.
+``max_lead`` (the bound on time)
+    A message more than ``max_lead`` seconds ahead of the newest time on the timeline
+    (a corrupt timestamp: a flipped byte in a log, ``t: 1e308``) is held, not used. Its
+    channel's next messages decide: ``lead_confirm`` of them in a row near it confirm a
+    real leap (a recording paused for hours): they are used, and the ticks of the
+    empty span are skipped (counted ``ticks_skipped``); a message back near the
+    newest time shows it was corrupt: the held ones are dropped (counted
+    ``implausible_time``, reported once per device). What is still held at the end is
+    dropped too. The first message of a run sets the reference. So one bad value can
+    never make the timeline emit ticks or hold messages without bound.
 
 Periodic ticks: every registered period produces :class:`Tick` messages at
-multiples of the period, released before any message with a later time. The
-output is deterministic: equal input always gives equal output order.
+multiples of the period, released before any message with a later time; between two
+data times more than ``max_lead`` apart no ticks are emitted. The output is
+deterministic: equal input always gives equal output order.
 """
 from __future__ import annotations
 
@@ -52,11 +63,13 @@ class TimelineConfig(BaseModel):
 
     reorder_window: float = Field(0.25, ge=0, description="hold messages this long [s] to reorder late arrivals", json_schema_extra={"unit": "s"})
     duplicates: Literal["drop", "keep"] = Field("drop", description="rule for exact duplicates")
-    duplicate_memory: int = Field(64, ge=1, description="messages per channel remembered for duplicate detection")
+    duplicate_memory: int = Field(64, ge=1, le=100_000, description="messages per channel remembered for duplicate detection")
     late: Literal["drop", "deliver"] = Field("drop", description="rule for messages older than ones already released")
     clock_jump: float = Field(5.0, gt=0, description="a time step back larger than this [s] is a clock jump", json_schema_extra={"unit": "s"})
     on_clock_jump: Literal["rebase", "drop"] = Field("rebase", description="rule for clock jumps")
     gap: float = Field(2.0, gt=0, description="a silence longer than this [s] is reported as a gap", json_schema_extra={"unit": "s"})
+    max_lead: float = Field(3600.0, gt=0, le=1e7, description="a message more than this [s] ahead of the newest time is held until its channel confirms the leap", json_schema_extra={"unit": "s"})
+    lead_confirm: int = Field(3, ge=1, le=100, description="messages in a row near a held one that confirm a real leap of time")
 
 
 @dataclass
@@ -67,6 +80,9 @@ class _Channel:
     typical_dt: float = 0.0
     dropping_until: float | None = None
     recent: deque = field(default_factory=deque)   # the last messages, for duplicates
+    recent_t_max: float = -math.inf                # the newest time among them
+    held: list = field(default_factory=list)  # (stream, msg, t_recv) ahead by > max_lead
+    implausible: int = 0
 
 
 @dataclass(order=True)
@@ -90,6 +106,8 @@ class Timeline:
         self._released = -math.inf
         self._ticks: list[list] = []  # [index of next tick or None, period, stream]
         self._out: list[tuple[str, Message]] = []  # late deliveries and diagnostics
+        self._holding: set[tuple[str, str]] = set()  # channels with held messages
+        self._pool: list[tuple] | None = []  # the first messages, until they set the reference
 
     # -- configuration ------------------------------------------------------------
     def add_tick(self, period: float, stream: str) -> None:
@@ -115,17 +133,24 @@ class Timeline:
         if ch.offset:
             msg = msg.shifted(ch.offset)
         if cfg.duplicates == "drop":
-            if msg.t <= ch.last_t and self._is_duplicate(ch, msg):
+            if msg.t <= ch.recent_t_max and self._is_duplicate(ch, msg):
                 self._count("duplicates")
                 return
             ch.recent.append(msg)
+            ch.recent_t_max = max(ch.recent_t_max, msg.t)
 
         if ch.dropping_until is not None:
             if msg.t <= ch.dropping_until:
                 self._count("clock_jump_dropped")
                 return
             ch.dropping_until = None
+        self._accept(stream, key, ch, msg, t_recv)
 
+    def _accept(self, stream: str, key: tuple[str, str], ch: _Channel, msg: Message,
+                t_recv: float | None, confirmed: bool = False) -> None:
+        """The clock-jump, lead, gap and late rules, then into the reorder heap."""
+        cfg = self.config
+        dt = 0.0
         if ch.last_t > -math.inf:
             dt = msg.t - ch.last_t
             jump = None
@@ -139,6 +164,18 @@ class Timeline:
                 if msg is None:
                     return
                 dt = msg.t - ch.last_t
+        if not confirmed:
+            if self._pool is not None:
+                self._pool.append((stream, key, ch, msg, t_recv))
+                if len(self._pool) >= cfg.lead_confirm:
+                    self._start()
+                return
+            if msg.t > self._newest + cfg.max_lead:
+                self._hold(stream, key, ch, msg, t_recv)
+                return
+            if ch.held:
+                self._drop_held(key, ch)
+        if ch.last_t > -math.inf:
             if dt > cfg.gap and msg.periodic:
                 self._count("gaps")
                 self._diagnose(msg, "gap", f"{stream}: no data for {dt:.2f} s "
@@ -156,7 +193,10 @@ class Timeline:
             self._count("late_delivered")
             self._out.append((stream, msg))
             return
-        self._newest = max(self._newest, msg.t)
+        if msg.t > self._newest:
+            self._newest = msg.t
+            if self._holding:
+                self._recheck_held()
         heapq.heappush(self._heap, _Entry(msg.t, self._seq, stream, msg))
         self._seq += 1
 
@@ -164,8 +204,8 @@ class Timeline:
     def _is_duplicate(ch: _Channel, msg: Message) -> bool:
         """Whether one of the channel's remembered messages equals ``msg`` exactly.
 
-        Only called for a message no newer than its channel's newest: a duplicate has
-        the time of the one it repeats, so a channel whose times go forward (every
+        Only called for a message no newer than the newest remembered one: a duplicate
+        has the time of the one it repeats, so a channel whose times go forward (every
         live link, every steady stream) never computes a key at all.
         """
         same_time = [m for m in ch.recent if m.t == msg.t]
@@ -173,6 +213,65 @@ class Timeline:
             return False
         key = msg.dedup_key()
         return any(m.dedup_key() == key for m in same_time)
+    # -- the lead rule ---------------------------------------------------------------
+    def _start(self) -> None:
+        """Set the reference time from the first messages: their median, so that one
+        corrupt first stamp cannot become it. Messages far behind it are dropped, those
+        far ahead are held like any other."""
+        pool, self._pool = self._pool or [], None
+        if not pool:
+            return
+        times = sorted(entry[3].t for entry in pool)
+        self._newest = times[len(times) // 2]
+        for stream, key, ch, msg, t_recv in pool:
+            if msg.t < self._newest - self.config.max_lead:
+                ch.held = [(stream, msg, t_recv)]
+                self._drop_held(key, ch)
+            else:
+                self._accept(stream, key, ch, msg, t_recv)
+
+    def _hold(self, stream: str, key: tuple[str, str], ch: _Channel, msg: Message,
+              t_recv: float | None) -> None:
+        """Keep a message far ahead of the newest time until its channel decides."""
+        if ch.held and abs(msg.t - ch.held[0][1].t) > self.config.max_lead:
+            self._drop_held(key, ch)  # not near the held ones either: they were corrupt
+        ch.held.append((stream, msg, t_recv))
+        self._holding.add(key)
+        if len(ch.held) >= self.config.lead_confirm:
+            self._confirm_held(key, ch)
+
+    def _confirm_held(self, key: tuple[str, str], ch: _Channel) -> None:
+        held, ch.held = ch.held, []
+        self._holding.discard(key)
+        first = held[0][1]
+        self._count("time_leaps")
+        self._diagnose(first, "time_leap", f"{held[0][0]}: device {key[1] or '?'} "
+                       f"continues {first.t - self._newest:.3g} s after the newest data "
+                       f"(confirmed by {len(held)} messages); its data are used")
+        for stream, msg, t_recv in held:
+            self._accept(stream, key, ch, msg, t_recv, confirmed=True)
+
+    def _drop_held(self, key: tuple[str, str], ch: _Channel) -> None:
+        n, first = len(ch.held), ch.held[0]
+        ch.held = []
+        self._holding.discard(key)
+        self.stats.count(TIMELINE_ID, "implausible_time", n)
+        if ch.implausible == 0:
+            self._diagnose(first[1], "implausible_time", f"{first[0]}: device "
+                           f"{key[1] or '?'} sent t={first[1].t:.6g} s, more than "
+                           f"{self.config.max_lead:g} s (max_lead) ahead of the newest "
+                           f"data and not continued: dropped", t=self._now())
+        ch.implausible += n
+
+    def _recheck_held(self) -> None:
+        """Held messages that the newest time has come within reach of are used."""
+        for key in sorted(self._holding):
+            ch = self._channels[key]
+            if ch.held and ch.held[0][1].t <= self._newest + self.config.max_lead:
+                held, ch.held = ch.held, []
+                self._holding.discard(key)
+                for stream, msg, t_recv in held:
+                    self._accept(stream, key, ch, msg, t_recv, confirmed=True)
 
     def _clock_jump(self, stream: str, key: tuple[str, str], ch: _Channel,
                     msg: Message, jump: float) -> Message | None:
@@ -195,6 +294,10 @@ class Timeline:
         ``flush`` releases everything (end of input). ``older_than`` also releases
         messages with time at or before it (used by live runs to bound latency).
         """
+        if flush:
+            self._start()
+            for key in sorted(self._holding):
+                self._drop_held(key, self._channels[key])
         out, self._out = self._out, []
         limit = math.inf if flush else self._newest - self.config.reorder_window
         if older_than is not None:
@@ -211,7 +314,12 @@ class Timeline:
             return
         for tick in self._ticks:
             if tick[0] is None:  # the first tick is the first multiple at or after t
-                tick[0] = math.ceil(t / tick[1] - 1e-9)
+                tick[0] = _tick_index(t, tick[1])
+            elif t - tick[0] * tick[1] > self.config.max_lead:  # a confirmed leap
+                skip = _tick_index(t, tick[1])
+                self.stats.count(TIMELINE_ID, "ticks_skipped",
+                                 int(min(skip - tick[0], 2**62)))
+                tick[0] = skip
         while True:  # tick k is at k * period exactly, so no rounding drift builds up
             nxt = min(self._ticks, key=lambda k: (k[0] * k[1], k[2]))
             t_tick = nxt[0] * nxt[1]
@@ -220,6 +328,12 @@ class Timeline:
             out.append((nxt[2], Tick(t=t_tick, period=nxt[1])))
             nxt[0] += 1
 
+    def _now(self) -> float:
+        """A time for the timeline's own reports that keeps its output in order."""
+        if self._released > -math.inf:
+            return self._released
+        return self._heap[0].t if self._heap else max(self._newest, 0.0)
+
     @property
     def pending(self) -> int:
         return len(self._heap)
@@ -227,7 +341,13 @@ class Timeline:
     def _count(self, what: str) -> None:
         self.stats.count(TIMELINE_ID, what)
 
-    def _diagnose(self, msg: Message, code: str, text: str) -> None:
+    def _diagnose(self, msg: Message, code: str, text: str, t: float | None = None) -> None:
         self._out.append((f"{TIMELINE_ID}.diagnostics", Diagnostic(
-            t=msg.t, agent=msg.agent, component=TIMELINE_ID, level="warning",
+            t=msg.t if t is None else t, agent=msg.agent, component=TIMELINE_ID, level="warning",
             code=code, text=text)))
+
+
+def _tick_index(t: float, period: float) -> float:
+    """Index of the first tick at or after ``t``; inf (no more ticks) beyond float range."""
+    k = t / period - 1e-9
+    return float(math.ceil(k)) if math.isfinite(k) else math.inf

@@ -4,6 +4,13 @@ The document is composed with :class:`yaml.SafeLoader` (no Python object tags, n
 imports) and converted to plain data while recording the start mark of each node
 under its path, e.g. ``("estimators", 0, "particles") -> (12, 5)``. Validation
 errors found later by path can then point at the exact place in the file.
+
+Limits, so that no file can make reading it hang or exhaust memory (each refusal is a
+located :class:`ConfigError`): a file of at most :data:`MAX_BYTES` (read no further;
+only regular files, so ``/dev/zero`` or a pipe is refused), nesting at most
+:data:`MAX_DEPTH` levels deep, at most :data:`MAX_NODES` values once aliases are
+expanded (a "billion laughs" file of nine lines expands to 10^9), and no alias
+inside its own anchor (a recursive structure).
 """
 from __future__ import annotations
 
@@ -14,6 +21,13 @@ from typing import Any
 import yaml
 
 Path_ = tuple[str | int, ...]
+
+#: Largest YAML file read [bytes] (pipelines, scenarios and calibrations are a few kB).
+MAX_BYTES = 4 * 1024 * 1024
+#: Deepest nesting of mappings and lists, aliases expanded.
+MAX_DEPTH = 64
+#: Most values (scalars, mappings, lists) in a document, aliases expanded.
+MAX_NODES = 200_000
 
 
 class ConfigError(Exception):
@@ -107,10 +121,16 @@ def _convert(loader: yaml.SafeLoader, node: yaml.Node, path: Path_,
 
 def loads(text: str, file: str = "<string>") -> LocatedDocument:
     """Parse YAML text safely; syntax errors become a :class:`ConfigError` with location."""
+    if len(text) > MAX_BYTES:
+        raise ConfigError([Problem(file, None, None, "", f"larger than {MAX_BYTES} bytes: "
+                                   "not a pipeline or configuration file")])
     loader = yaml.SafeLoader(text)
     try:
+        _check_depth(text)
         node = loader.get_single_node()
         marks: dict[Path_, tuple[int, int]] = {}
+        if node is not None:
+            _check_expansion(node, 1, {}, set())
         data = None if node is None else _convert(loader, node, (), marks)
     except ConfigError as exc:
         raise ConfigError([Problem(file, p.line, p.col, p.where, p.message)
@@ -129,13 +149,76 @@ def loads(text: str, file: str = "<string>") -> LocatedDocument:
     return LocatedDocument(data=data, file=file, marks=marks)
 
 
+def _limit(mark: yaml.Mark, message: str) -> ConfigError:
+    return ConfigError([Problem("", mark.line + 1, mark.column + 1, "", message)])
+
+
+def _check_depth(text: str) -> None:
+    """Refuse nesting deeper than :data:`MAX_DEPTH` before composing (the composer
+    recurses once per level)."""
+    depth = 0
+    for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise _limit(event.start_mark, f"nested more than {MAX_DEPTH} levels deep")
+        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            depth -= 1
+
+
+def _check_expansion(node: yaml.Node, depth: int, memo: dict[int, tuple[int, int]],
+                     active: set[int]) -> tuple[int, int]:
+    """(values, levels) under ``node`` with aliases expanded; raises past the limits.
+
+    Each node is measured once (``memo``), so a file of nested aliases costs its own
+    size, not its expansion; ``active`` holds the nodes being measured (an alias to one
+    of them is recursive).
+    """
+    if depth > MAX_DEPTH:
+        raise _limit(node.start_mark, f"nested more than {MAX_DEPTH} levels deep once "
+                     "aliases are expanded")
+    known = memo.get(id(node))
+    if known is not None:
+        if depth + known[1] - 1 > MAX_DEPTH:
+            raise _limit(node.start_mark, f"nested more than {MAX_DEPTH} levels deep once "
+                         "aliases are expanded")
+        return known
+    if isinstance(node, yaml.ScalarNode):
+        return 1, 1
+    if id(node) in active:
+        raise _limit(node.start_mark, "an alias refers to the value it is part of "
+                     "(a recursive structure)")
+    active.add(id(node))
+    children = ([n for pair in node.value for n in pair] if isinstance(node, yaml.MappingNode)
+                else node.value)
+    size, height = 1, 1
+    for child in children:
+        s, h = _check_expansion(child, depth + 1, memo, active)
+        size, height = size + s, max(height, h + 1)
+        if size > MAX_NODES:
+            raise _limit(node.start_mark, f"more than {MAX_NODES} values once aliases "
+                         "are expanded (an alias bomb?)")
+    active.discard(id(node))
+    memo[id(node)] = (size, height)
+    return size, height
+
+
 def load(path: str | Path) -> LocatedDocument:
-    """Read and parse a YAML file (see :func:`loads`)."""
+    """Read and parse a YAML file (see :func:`loads`; at most :data:`MAX_BYTES` are read)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        if path.exists() and not path.is_file():
+            raise ConfigError([Problem(str(path), None, None, "", "cannot read: not a "
+                                       "regular file")])
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_BYTES + 1)
     except OSError as exc:
         raise ConfigError([Problem(str(path), None, None, "", f"cannot read: {exc.strerror}")]) from None
+    if len(raw) > MAX_BYTES:
+        raise ConfigError([Problem(str(path), None, None, "", f"larger than {MAX_BYTES} "
+                                   "bytes: not a pipeline or configuration file")])
+    try:
+        text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ConfigError([Problem(str(path), None, None, "", f"not UTF-8 text: {exc}")]) from None
     return loads(text, str(path))

@@ -20,8 +20,24 @@ def _command_modules() -> list[str]:
     return sorted(m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_"))
 
 
+#: What the exit codes mean (``firenav --help`` prints this; README.md says the same).
+EXIT_CODES = """exit codes:
+  0    success
+  1    the command finished but something failed: a plugin faulted (or its watchdog
+       fired) in a run or replay, a run got no data at all, `map check` found errors
+  2    bad input: pipeline, file or arguments (a located message says what)
+  130  interrupted before the command could finish (a run stopped by Ctrl-C or
+       SIGTERM ends cleanly instead: outputs flushed, summary written, 0 or 1)"""
+
+
 class UsageError(Exception):
     """A problem with the command line or the files it names (exit code 2)."""
+
+
+def print_warnings(spec) -> None:
+    """The located warnings of a validated pipeline (``PipelineSpec.warnings``), on stderr."""
+    for w in spec.warnings:
+        print(f"warning: {w}", file=sys.stderr)
 
 
 def _named_command(argv: list[str]) -> str | None:
@@ -37,7 +53,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     module imports what it needs, so ``firenav run`` does not pay for ``firenav play``)."""
     parser = argparse.ArgumentParser(
         prog="firenav", description="Locate firefighters inside buildings: run, check "
-        "and evaluate sensor-fusion pipelines.")
+        "and evaluate sensor-fusion pipelines.", epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output (-vv for debug)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)

@@ -4,7 +4,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import signal
 import sys
 import time
 from collections.abc import Iterator
@@ -17,7 +16,7 @@ from ..runner import PipelineBuildError, Runner, RunResult
 from ..sinks.track_plot import background_rendering
 from ..summary import format_summary, summary_dict
 from ..yaml_locations import load
-from . import UsageError
+from . import UsageError, print_warnings
 
 
 def add_run_arguments(p: argparse.ArgumentParser) -> None:
@@ -71,6 +70,7 @@ def prepare(args: argparse.Namespace) -> tuple[PipelineSpec, Path]:
     if args.input:
         overrides.insert(0, input_override(args.pipeline, args.input))
     spec = load_pipeline(args.pipeline, overrides)
+    print_warnings(spec)
     out = args.output or Path("out") / spec.name
     return spec, out
 
@@ -138,21 +138,31 @@ def execute(spec: PipelineSpec, out: Path, *, realtime: bool = False, speed: flo
         raise UsageError("--workers must be 0 or more")
     out.mkdir(parents=True, exist_ok=True)
     runner = Runner(spec, output_dir=out, realtime=realtime, speed=speed,
-                    progress=None if quiet else sys.stderr, workers=workers)
-    previous = signal.getsignal(signal.SIGTERM)
-    signal.signal(signal.SIGTERM, lambda *_: runner.stop())
+                    progress=None if quiet else sys.stderr, workers=workers, hard_exit=True)
     if not quiet:   # at once: a first run may then compile for a minute
         print(f"[firenav] running {spec.name} ({len(spec.components)} components), output "
               f"to {out}/", file=sys.stderr, flush=True)
     try:
+        # SIGTERM and Ctrl-C end the run cleanly (see watchdog.py)
         with compile_notice(None if quiet else sys.stderr), background_rendering():
             result = runner.run()
     except PipelineBuildError as exc:
         raise UsageError(str(exc)) from None
-    finally:
-        signal.signal(signal.SIGTERM, previous)
     (out / "summary.json").write_text(json.dumps(summary_dict(result), indent=1) + "\n")
     return result
+
+
+def exit_code(result: RunResult) -> int:
+    """0 for a clean run; 1 (with the reason on stderr) when a plugin faulted or when no
+    source delivered any data (the run produced nothing)."""
+    problems = []
+    if result.faults:
+        problems.append(f"{len(result.faults)} plugin fault(s), see 'Plugin faults' above")
+    if result.t_first is None:
+        problems.append("no source delivered any data")
+    for p in problems:
+        print(f"error: {p}", file=sys.stderr)
+    return 1 if problems else 0
 
 
 def run(args: argparse.Namespace) -> int:
@@ -161,4 +171,4 @@ def run(args: argparse.Namespace) -> int:
                      workers=args.workers)
     print(format_summary(result))
     print(f"\nOutput written to {out}/")
-    return 0
+    return exit_code(result)

@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 
 from ..pipeline import load_pipeline
+from ..registry import BUILTIN_DIST
+from . import print_warnings
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -16,10 +18,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     spec = load_pipeline(args.pipeline, args.overrides)
+    print_warnings(spec)
     print(f"{args.pipeline}: ok ({len(spec.components)} components)")
     for c in spec.components:
         ins = ", ".join(c.inputs) or "-"
         outs = ", ".join(p for p in c.outputs if p != "diagnostics") or "-"
         attached = f" [on {c.parent}]" if c.parent else ""
-        print(f"  {c.kind:<10} {c.id:<16} {c.plugin.name:<20} in: {ins}  out: {outs}{attached}")
+        label = c.plugin.name if c.plugin.package == BUILTIN_DIST else \
+            f"{c.plugin.name}@{c.plugin.package}"
+        print(f"  {c.kind:<10} {c.id:<16} {label:<20} in: {ins}  out: {outs}{attached}")
     return 0

@@ -20,6 +20,7 @@ import importlib
 import importlib.metadata as md
 
 from .base import Codec, EncodedFrame, FrameError, to_raw_frames
+from ..safe_import import PluginImportError, import_object
 
 __all__ = ["Codec", "EncodedFrame", "FrameError", "to_raw_frames", "BUILTIN_CODECS",
            "CODEC_GROUP", "UnknownCodec", "get_codec", "codec_names"]
@@ -34,6 +35,7 @@ BUILTIN_CODECS: dict[str, str] = {
     "uwb_lines": "firenav_framework.codecs.uwb_lines:UwbLinesCodec",
     "uwb_can": "firenav_framework.codecs.uwb_can:UwbCanCodec",
     "rfid_lines": "firenav_framework.codecs.rfid_lines:RfidLinesCodec",
+    "baro_lines": "firenav_framework.codecs.baro_lines:BaroLinesCodec",
 }
 
 
@@ -65,11 +67,13 @@ def get_codec(name: str) -> type[Codec]:
         hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
         raise UnknownCodec(f"no codec named {name!r}{hint}")
     try:
-        if ep is not None:
-            cls = ep.load()
+        if ep is not None:  # a vendor's: a hang or sys.exit() at import is contained too
+            cls = import_object(ep.value)
         else:
             module, _, attr = target.partition(":")
             cls = getattr(importlib.import_module(module), attr)
+    except PluginImportError as exc:
+        raise UnknownCodec(f"codec {name!r} failed to load: {exc.detail}") from exc
     except Exception as exc:
         raise UnknownCodec(f"codec {name!r} failed to load: {type(exc).__name__}: {exc}") from exc
     if not (isinstance(cls, type) and issubclass(cls, Codec)) or cls.name != name:

@@ -38,10 +38,10 @@ from .hookspecs import hookimpl
 from .kinds import KIND_BASES, KINDS
 from .params import AgentPose, Angle, AngularRate, Params, StartPose, Vec3, param
 from .sensor import Sensor
-from .sink import FileSink, OutputPathError, Sink
+from .sink import FileSink, OutputName, OutputPathError, Sink
 from .source import Source
 
 __all__ = ["Component", "Constraint", "Context", "NoBuilding", "PerAgent", "pipeline_dir",
            "Estimator", "hookimpl", "KIND_BASES", "KINDS", "AgentPose", "Angle",
            "AngularRate", "Params", "StartPose", "Vec3", "param", "Sensor", "FileSink",
-           "OutputPathError", "Sink", "Source"]
+           "OutputName", "OutputPathError", "Sink", "Source"]

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from ..messages import Diagnostic, Message
+from ..timefmt import clock_text
 
 if TYPE_CHECKING:
     from ..stats import RunStats
@@ -156,7 +157,7 @@ class Context:
         key, code = k
         detail = f" (longest {p.worst:.2f} s)" if p.worst else ""
         since = self._last.get(k)
-        window = f" since t={since:.1f} s" if since is not None else ""
+        window = f" since {clock_text(since)}" if since is not None else ""
         prefix = f"{key}: " if key else ""
         self.diagnose(p.t, p.level, code, f"{prefix}{p.n} {p.text}{detail}{window}",
                       agent=p.agent)

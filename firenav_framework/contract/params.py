@@ -6,6 +6,9 @@ table and its documentation. Parameters are SI: metres, seconds, radians. Angles
 written in a pipeline with a unit (``heading: 90 deg``, ``yaw_rate_sigma: 0.2 deg/s``);
 they are stored in radians (radians per second), which is what the plugin reads.
 Related parameters form nested models (``detector: {window: 0.025}``).
+
+No parameter may be NaN (``.nan`` in YAML is refused, located, for every plugin);
+positions (:data:`Vec3`) and angles must also be finite.
 """
 from __future__ import annotations
 
@@ -13,16 +16,34 @@ import math
 import re
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import AllowInfNan, BaseModel, BeforeValidator, ConfigDict, Field, field_validator
 
 __all__ = ["Params", "param", "Angle", "AngularRate", "Vec3", "AgentPose", "StartPose",
            "parse_angle"]
 
 
 class Params(BaseModel):
-    """Base for plugin parameter models: unknown keys are errors, values are checked."""
+    """Base for plugin parameter models: unknown keys are errors, values are checked,
+    and no value is NaN."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+    @field_validator("*", mode="after")
+    @classmethod
+    def _no_nan(cls, value: Any) -> Any:
+        if _has_nan(value):
+            raise ValueError("must be a number, not NaN")
+        return value
+
+
+def _has_nan(value: Any) -> bool:
+    if isinstance(value, float):
+        return math.isnan(value)
+    if isinstance(value, (tuple, list)):
+        return any(_has_nan(v) for v in value)
+    if isinstance(value, dict):
+        return any(_has_nan(v) for v in value.values())
+    return False
 
 
 def param(default: Any = ..., *, unit: str | None = None, description: str = "",
@@ -56,12 +77,14 @@ def parse_angle(value: Any, units: dict[str, float] = _ANGLE_UNITS) -> Any:
     return value
 
 
-#: An angle [rad]; YAML may say ``90 deg`` or ``1.57 rad``.
-Angle = Annotated[float, BeforeValidator(parse_angle)]
-#: An angular rate [rad/s]; YAML may say ``0.2 deg/s``, ``15 deg/min`` or ``8 deg/h``.
-AngularRate = Annotated[float, BeforeValidator(lambda v: parse_angle(v, _RATE_UNITS))]
-#: A position or vector (x, y, z) [m], building-frame ENU unless said otherwise.
-Vec3 = tuple[float, float, float]
+#: An angle [rad], finite; YAML may say ``90 deg`` or ``1.57 rad``.
+Angle = Annotated[float, BeforeValidator(parse_angle), AllowInfNan(False)]
+#: An angular rate [rad/s], finite; YAML may say ``0.2 deg/s``, ``15 deg/min`` or ``8 deg/h``.
+AngularRate = Annotated[float, BeforeValidator(lambda v: parse_angle(v, _RATE_UNITS)),
+                        AllowInfNan(False)]
+_Finite = Annotated[float, AllowInfNan(False)]
+#: A position or vector (x, y, z) [m], finite, building-frame ENU unless said otherwise.
+Vec3 = tuple[_Finite, _Finite, _Finite]
 
 
 class AgentPose(Params):

@@ -21,11 +21,24 @@ Definitions (all distances horizontal unless said otherwise, metres, seconds):
   between two floors and either of them counts as right (needs the floor levels);
 * ``converge_s``: time from the first estimate until the error drops below
   ``bound_m`` for good (None if it never stays below).
+
+Integrity (whether the estimate's own uncertainty holds its promises; dense truth only):
+
+* ``ellipse95_containment``: fraction of estimates whose true position lies inside
+  their 95 % horizontal covariance ellipse (squared Mahalanobis distance <= 5.991);
+  about 0.95 for a consistent covariance;
+* ``nees_xy``: mean horizontal normalised estimation error squared (2 for a
+  consistent covariance, larger when it is optimistic);
+* ``protection_containment``: fraction of estimates with a finite protection radius
+  whose error is within it (the radius promises 0.99);
+* ``trusted_fraction``: fraction of estimates flagged trusted;
+* ``trusted_off_fraction``: fraction of ALL estimates that are trusted while more than
+  :data:`ALERT_LIMIT_M` off: the failure a commander cannot see.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -33,6 +46,10 @@ from ..tracks import Track
 
 #: A true height farther than this [m] from every floor level is "between floors".
 STAIR_BAND_M = 0.5
+#: Error [m] beyond which a trusted pose counts as confidently wrong.
+ALERT_LIMIT_M = 3.0
+#: chi-square (2 degrees of freedom) 95 % quantile: the 95 % ellipse's squared radius.
+CHI2_2_95 = 5.991464547107979
 
 
 def floor_right(floor_est: np.ndarray, floor_true: np.ndarray, z_true: np.ndarray,
@@ -123,6 +140,9 @@ class TrackErrors:
     vertical: np.ndarray      # (N,) estimate z - true z [m] (NaN: unknown)
     floor_ok: np.ndarray      # (N,) 1.0 right floor, 0.0 wrong, NaN unknown
     distance_m: float         # true path length over the span
+    mahalanobis2: np.ndarray = field(default_factory=lambda: np.empty(0))  # (N,) NaN: no cov
+    protection: np.ndarray = field(default_factory=lambda: np.empty(0))    # (N,) [m], inf: none
+    trusted: np.ndarray = field(default_factory=lambda: np.empty(0, bool))  # (N,)
 
 
 def track_errors(track: Track, truth: Track, floor_levels: np.ndarray | None = None
@@ -147,7 +167,23 @@ def track_errors(track: Track, truth: Track, floor_levels: np.ndarray | None = N
     floor_ok = floor_right(floor_est, truth.floor[near], z_true, floor_levels)
     span = (truth.t >= t[0]) & (truth.t <= t[-1])
     dist = path_length(truth.position[span, :2])
-    return TrackErrors(track.agent, t, e, vertical, floor_ok, dist)
+    dxy = track.position[inside, :2] - np.column_stack(
+        [np.interp(t, truth.t, truth.position[:, 0]), np.interp(t, truth.t, truth.position[:, 1])])
+    return TrackErrors(track.agent, t, e, vertical, floor_ok, dist,
+                       mahalanobis2=horizontal_mahalanobis2(dxy, track.cov[inside]),
+                       protection=track.protection_radius[inside],
+                       trusted=track.trusted[inside])
+
+
+def horizontal_mahalanobis2(dxy: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """Squared Mahalanobis distances of errors ``dxy`` (N, 2) [m] under the horizontal
+    blocks of ``cov`` (N, 4, 4); NaN where a covariance is not positive definite."""
+    c = cov[:, :2, :2]
+    a, b, d = c[:, 0, 0], 0.5 * (c[:, 0, 1] + c[:, 1, 0]), c[:, 1, 1]
+    det = a * d - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m2 = (d * dxy[:, 0] ** 2 - 2 * b * dxy[:, 0] * dxy[:, 1] + a * dxy[:, 1] ** 2) / det
+    return np.where((det > 0) & (a > 0) & np.isfinite(m2), m2, np.nan)
 
 
 def _finite_or_none(v: float) -> float | None:
@@ -171,13 +207,39 @@ class TrackMetrics:
     vertical_rmse_m: float | None
     floor_accuracy: float | None
     converge_s: float | None
+    ellipse95_containment: float | None = None
+    nees_xy: float | None = None
+    protection_containment: float | None = None
+    trusted_fraction: float | None = None
+    trusted_off_fraction: float | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)
 
 
+INTEGRITY_KEYS = ("ellipse95_containment", "nees_xy", "protection_containment",
+                  "trusted_fraction", "trusted_off_fraction")
 KEYS = ("rmse_m", "mean_m", "median_m", "p90_m", "p95_m", "max_m", "mean_pct_distance",
-        "max_pct_distance", "distance_m", "vertical_rmse_m", "floor_accuracy", "converge_s")
+        "max_pct_distance", "distance_m", "vertical_rmse_m", "floor_accuracy", "converge_s",
+        *INTEGRITY_KEYS)
+
+
+def integrity_figures(err: TrackErrors) -> dict[str, float | None]:
+    """The integrity figures of the module docstring (None where they do not apply)."""
+    n = len(err.horizontal)
+    if n == 0 or len(err.trusted) != n:
+        return dict.fromkeys(INTEGRITY_KEYS)
+    m2 = err.mahalanobis2[np.isfinite(err.mahalanobis2)]
+    finite_pr = np.isfinite(err.protection)
+    return {
+        "ellipse95_containment": float(np.mean(m2 <= CHI2_2_95)) if m2.size else None,
+        "nees_xy": float(np.mean(m2)) if m2.size else None,
+        "protection_containment": (float(np.mean(err.horizontal[finite_pr]
+                                                 <= err.protection[finite_pr]))
+                                   if finite_pr.any() else None),
+        "trusted_fraction": float(np.mean(err.trusted)),
+        "trusted_off_fraction": float(np.mean(err.trusted & (err.horizontal > ALERT_LIMIT_M))),
+    }
 
 
 def metrics_of(err: TrackErrors, bound_m: float = CONVERGE_BOUND_M) -> TrackMetrics:
@@ -195,7 +257,8 @@ def metrics_of(err: TrackErrors, bound_m: float = CONVERGE_BOUND_M) -> TrackMetr
         distance_m=_finite_or_none(d),
         vertical_rmse_m=_finite_or_none(float(np.sqrt(np.mean(vert ** 2)))) if vert.size else None,
         floor_accuracy=float(fl.mean()) if fl.size else None,
-        converge_s=convergence_time(err.t, err.horizontal, bound_m))
+        converge_s=convergence_time(err.t, err.horizontal, bound_m),
+        **integrity_figures(err))
 
 
 def pooled_metrics(errs: list[TrackErrors], bound_m: float = CONVERGE_BOUND_M) -> TrackMetrics:
@@ -208,12 +271,15 @@ def pooled_metrics(errs: list[TrackErrors], bound_m: float = CONVERGE_BOUND_M) -
     least half never converge).
     """
     if not errs:
-        return TrackMetrics(0, *([None] * 12))
+        return TrackMetrics(0, *([None] * len(KEYS)))
     per = [metrics_of(e, bound_m) for e in errs]
     pooled = metrics_of(TrackErrors("", np.concatenate([e.t for e in errs]),
                                     np.concatenate([e.horizontal for e in errs]),
                                     np.concatenate([e.vertical for e in errs]),
-                                    np.concatenate([e.floor_ok for e in errs]), 0.0), bound_m)
+                                    np.concatenate([e.floor_ok for e in errs]), 0.0,
+                                    np.concatenate([e.mahalanobis2 for e in errs]),
+                                    np.concatenate([e.protection for e in errs]),
+                                    np.concatenate([e.trusted for e in errs])), bound_m)
 
     def mean_of(key: str) -> float | None:
         vals = [getattr(m, key) for m in per if getattr(m, key) is not None]

@@ -1,7 +1,8 @@
 """A Markdown evaluation page with plots (matplotlib, headless Agg).
 
 ``write_report(evaluation, out_dir)`` writes ``report.md`` with the figures table
-(pipeline and baseline side by side, per agent and overall) and three kinds of PNG:
+(pipeline and baseline side by side: pooled over all runs, and the spread of each
+figure over runs, see :mod:`.spread`), per agent, and three kinds of PNG:
 
 * ``tracks_seed<k>_floor<i>.png``: truth, estimate and baseline of the first runs over
   the floor plan, with 2-sigma position ellipses along the estimate;
@@ -17,6 +18,8 @@ import numpy as np
 from ..tracks import Track
 from .metrics import KEYS
 from .runs import Evaluation, RunEvaluation
+from .seeds import describe_seeds
+from .spread import Spread
 
 _LABELS = {
     "rmse_m": "RMSE [m]", "mean_m": "mean [m]", "median_m": "median [m]", "p90_m": "90 % [m]",
@@ -24,6 +27,9 @@ _LABELS = {
     "max_pct_distance": "max / distance [%]", "distance_m": "true distance [m]",
     "vertical_rmse_m": "vertical RMSE [m]", "floor_accuracy": "floor accuracy",
     "converge_s": "converged after [s]",
+    "ellipse95_containment": "truth in 95 % ellipse", "nees_xy": "NEES (x, y; 2 if consistent)",
+    "protection_containment": "error within protection radius",
+    "trusted_fraction": "trusted", "trusted_off_fraction": "trusted while > 3 m off",
 }
 
 
@@ -31,8 +37,44 @@ def _fmt(v) -> str:
     if v is None:
         return "-"
     if isinstance(v, float):
+        if v == np.inf:
+            return "never"
         return f"{v:.3f}" if abs(v) < 10 else f"{v:.1f}"
     return str(v)
+
+
+def fmt_spread(s: Spread) -> tuple[str, str]:
+    """(``"min / median / max"``, ``"[low, high]"``) of a spread; "-" where it has none."""
+    if s.n == 0:
+        return "-", "-"
+    mmm = f"{_fmt(s.min)} / {_fmt(s.median)} / {_fmt(s.max)}"
+    ci = f"[{_fmt(s.ci_low)}, {_fmt(s.ci_high)}]" if s.ci_low is not None else "-"
+    return mmm, ci
+
+
+#: Header of :func:`figure_rows` (the baseline's three columns follow when there is one).
+FIGURE_HEADER = ("figure", "pipeline pooled", "runs: min / median / max", "95 % CI of median")
+
+
+def figure_rows(ev: Evaluation) -> list[list[str]]:
+    """Every figure: pooled over all runs, and its spread over runs; then the baseline's."""
+    spreads = ev.spread()
+    base = ev.baseline
+    base_spreads = base.spread() if base is not None else {}
+    rows = []
+    for k in KEYS:
+        row = [_LABELS[k], _fmt(getattr(ev.overall, k)), *fmt_spread(spreads[k])]
+        if base is not None:
+            row += [_fmt(getattr(base.overall, k)), *fmt_spread(base_spreads[k])]
+        rows.append(row)
+    return rows
+
+
+def figure_header(ev: Evaluation) -> list[str]:
+    head = list(FIGURE_HEADER)
+    if ev.baseline is not None:
+        head += ["baseline pooled", "baseline runs", "baseline 95 % CI"]
+    return head
 
 
 def _plt():
@@ -147,19 +189,19 @@ def write_report(ev: Evaluation, out_dir: str | Path, *, track_runs: int = 2) ->
     base = ev.baseline
     lines = [f"# Evaluation: {Path(ev.pipeline).name}", ""]
     lines += [f"- scenario: `{ev.scenario}`" if ev.scenario else "- recorded data",
-              f"- seeds: {', '.join(str(s) for s in ev.seeds)} ({len(ev.runs)} runs)",
+              f"- seeds: {describe_seeds(ev.seeds)} ({len(ev.runs)} runs)",
               f"- evaluated stream: `{ev.stream}`; truth: {ev.truth_mode}; alignment: {ev.align}",
               f"- convergence: error stays below {ev.bound_m:g} m"]
     if base is not None:
         lines.append(f"- baseline: `{Path(base.pipeline).name}` stream `{base.stream}` "
                      "on the same seeds")
-    lines += ["", "## Overall", "", "| figure | pipeline |" + (" baseline |" if base else ""),
-              "|---|---|" + ("---|" if base else "")]
-    for k in KEYS:
-        row = f"| {_LABELS[k]} | {_fmt(getattr(ev.overall, k))} |"
-        if base is not None:
-            row += f" {_fmt(getattr(base.overall, k))} |"
-        lines.append(row)
+    head = figure_header(ev)
+    lines += ["", "## Overall", "",
+              "Pooled: all samples of all runs; runs: each run's figure (its agents pooled), "
+              "min / median / max over runs and the distribution-free 95 % confidence "
+              "interval of the median (needs >= 6 runs).", "",
+              "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(row) + " |" for row in figure_rows(ev)]
     lines += ["", "## Per agent (all seeds pooled)", ""]
     head = ["agent", "RMSE [m]", "mean [m]", "p95 [m]", "max [m]", "mean/dist [%]",
             "vertical RMSE [m]", "floor acc.", "converged [s]"]
@@ -174,14 +216,19 @@ def write_report(ev: Evaluation, out_dir: str | Path, *, track_runs: int = 2) ->
     p_time, p_cdf = _error_plots(ev, out)
     lines += ["", "## Error over time", "", f"![error over time]({p_time.name})", "",
               "## Error distribution", "", f"![error CDF]({p_cdf.name})", "", "## Tracks", ""]
-    for i, run in enumerate(ev.runs[:track_runs]):
-        brun = base.runs[i] if base is not None and i < len(base.runs) else None
+    for run in ev.runs[:track_runs]:
+        brun = next((b for b in base.runs if b.seed == run.seed), None) if base else None
         for p in _track_plot(run, brun, out, "pipeline", "baseline"):
             lines += [f"![tracks]({p.name})", ""]
     missing = sorted({a for r in ev.runs for a in r.missing_truth})
     outside = sum(r.outside_checkpoints for r in ev.runs)
-    if missing or outside:
+    failed = [(name, f) for name, e in (("", ev), ("baseline ", base)) if e is not None
+              for f in e.failed]
+    if missing or outside or failed:
         lines += ["## Notes", ""]
+        for name, f in failed:
+            lines.append(f"- {name}seed {f.seed} FAILED after {f.attempts} attempts "
+                         f"(not scored): {f.error}")
         if missing:
             lines.append(f"- no ground truth for agents: {', '.join(missing)} (not scored)")
         if outside:

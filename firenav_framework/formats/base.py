@@ -7,10 +7,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..messages import ImuBlock
+
+if TYPE_CHECKING:
+    from .csv_layout import CsvColumns
 
 
 class ReaderError(ValueError):
@@ -24,6 +28,10 @@ def _no_count(what: str, n: int = 1) -> None:
     """Default counter of :class:`ReadOptions`: nothing is recorded."""
 
 
+def _no_warn(code: str, text: str) -> None:
+    """Default warning callback of :class:`ReadOptions`: nothing is reported."""
+
+
 @dataclass(frozen=True)
 class ReadOptions:
     """How a reader labels and cuts what it reads.
@@ -32,13 +40,18 @@ class ReadOptions:
     ``"<agent>/imu"`` unless given); ``block_s`` is the length [s] of the
     :class:`ImuBlock` pieces an IMU recording is cut into; ``count(what, n)`` records
     rows or records the reader skipped (the recording source passes ``ctx.count``,
-    so they appear in the run summary).
+    so they appear in the run summary); ``warn(code, text)`` reports what the user
+    must hear about once (an empty log, a damaged region, a file of one device that
+    cannot be read), with the file in the text; ``columns`` is the column and unit
+    mapping of a text recording (a :class:`~.csv_layout.CsvColumns`, None: from the file).
     """
 
     agent: str = "ff1"
     device: str = ""
     block_s: float = 0.1
     count: Callable[[str, int], None] = field(default=_no_count, compare=False)
+    warn: Callable[[str, str], None] = field(default=_no_warn, compare=False)
+    columns: CsvColumns | None = None
 
     def __post_init__(self) -> None:
         if not self.device:

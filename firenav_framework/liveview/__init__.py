@@ -1,8 +1,13 @@
-"""The incident commander's view: per-firefighter status and a browser page.
+"""The incident commander's view: conditions, latched alarms and a browser page.
 
-* :mod:`.status`: stale / untrustworthy / man-down states per firefighter, shared by
-  the ``live_view`` and ``mavlink_out`` sinks so both say the same thing.
-* :mod:`.server`: the state the page shows and a small standard-library HTTP server
-  (``/`` the page, ``/api/state`` a snapshot, ``/events`` Server-Sent Events).
+* :mod:`.status`: the conditions per firefighter (device silent, man down, untrusted
+  position, map contradiction) on the timeline clock, shared by the ``live_view`` and
+  ``mavlink_out`` sinks so both say the same thing.
+* :mod:`.alarms`: alarms latched until acknowledged, and their incident-log texts.
+* :mod:`.plan`: the floor plan as the page draws it; where true north is.
+* :mod:`.feed`: snapshots for the web clients, taken without making the pipeline wait.
+* :mod:`.access`: the Host check and the optional token.
+* :mod:`.server`: the standard-library HTTP server (page, plan, state, Server-Sent
+  Events, acknowledgements).
 * ``index.html``, ``app.js``, ``style.css``: the page (plain JS, SVG, no build step).
 """

@@ -1,11 +1,13 @@
-"""The fused output (poses, covariances, diagnostics, any stream) recorded as MCAP.
+"""The fused output recorded as MCAP in Foxglove's well-known schemas, one topic per
+firefighter (the topics: :mod:`.foxglove_topics`).
 
-One MCAP channel per input stream (topic = the stream name, e.g. ``ins.pose``), JSON
-messages with a JSON-schema per message type generated from the message dataclass,
-so Foxglove Studio, the ``mcap`` CLI and the ``mcap`` Python reader show them with
-field names. Arrays become nested lists, bytes base64, non-finite floats ``null``.
-``log_time`` is the message time ``t`` in nanoseconds (times before 0 are written as
-0 and counted as ``negative_times``).
+Foxglove's Map panel draws the location fixes of a georeferenced plan, its 3D panel
+the poses and the walls of every floor; the ``mcap`` CLI and the ``mcap`` Python
+reader list the schema names (``foxglove.PoseInFrame``, ``foxglove.LocationFix``,
+``foxglove.SceneUpdate``, ``foxglove.Log``, ``firenav.*`` JSON schemas). ``log_time``
+is the message time ``t`` in nanoseconds (times before 0 are written as 0 and counted
+as ``negative_times``). The incident log (alarm events and acknowledgements, from the
+``live_view`` sink's diagnostics) is the topic ``/incident_log``.
 
 Crash safety: chunks are small (``chunk_kb``) and the file is flushed every
 ``flush_s`` seconds of wall time, so a killed run leaves every finished chunk
@@ -13,86 +15,33 @@ readable by a streaming MCAP reader (the summary at the end is missing).
 """
 from __future__ import annotations
 
-import base64
-import dataclasses
-import json
 import math
 import time
 import typing
 
 import numpy as np
 
-from ..contract import FileSink, Params, param
+from ..contract import FileSink, OutputName, Params, param
 from ..messages import Message
-
-_JSON_TYPES = {float: {"type": ["number", "null"]}, int: {"type": "integer"},
-               str: {"type": "string"}, bool: {"type": "boolean"}}
-
-
-def _field_schema(tp: typing.Any) -> dict:
-    origin = typing.get_origin(tp)
-    args = [a for a in typing.get_args(tp) if a is not type(None)]
-    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)):
-        inner = [_field_schema(a) for a in args]
-        return {"anyOf": inner + [{"type": "null"}]}
-    if tp in _JSON_TYPES:
-        return dict(_JSON_TYPES[tp])
-    if tp is bytes:
-        return {"type": "string", "contentEncoding": "base64"}
-    if tp is np.ndarray:
-        return {"type": "array", "description": "numpy array as nested lists"}
-    return {}
-
-
-def json_schema(cls: type[Message]) -> dict:
-    """A JSON schema of a message dataclass (field names, types, the docstring)."""
-    hints = typing.get_type_hints(cls)
-    props = {f.name: _field_schema(hints.get(f.name)) for f in dataclasses.fields(cls)}
-    return {"title": f"firenav.{cls.__name__}", "description": (cls.__doc__ or "").strip(),
-            "type": "object", "properties": props}
-
-
-def _jsonable(value: typing.Any) -> typing.Any:
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (bytes, bytearray)):
-        return base64.b64encode(bytes(value)).decode()
-    if isinstance(value, np.generic):
-        return _jsonable(value.item())
-    return value
-
-
-def _clean(obj: typing.Any) -> typing.Any:
-    """Non-finite floats in nested lists become None (JSON has no NaN)."""
-    if isinstance(obj, list):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
-def message_json(msg: Message) -> bytes:
-    """The JSON body of one message (see the module docstring)."""
-    body = {f.name: _clean(_jsonable(getattr(msg, f.name))) for f in dataclasses.fields(msg)}
-    return json.dumps(body, separators=(",", ":"), allow_nan=False).encode()
+from .foxglove_topics import FoxgloveTopics, Record
 
 
 class McapRecorderSink(FileSink):
-    """Record streams (poses with covariance, diagnostics, ...) to an MCAP file for robotics tools."""
+    """Record poses (Foxglove PoseInFrame, LocationFix), walls, diagnostics and any stream to MCAP."""
 
     name = "mcap_recorder"
     inputs = (Message,)
 
     class Params(Params):
-        file: str = param("fused.mcap", description="file name under the output folder")
+        file: OutputName = param("fused.mcap", description="file name under the output folder")
         compression: typing.Literal["zstd", "lz4", "none"] = param(
             "zstd", description="chunk compression")
-        chunk_kb: int = param(64, gt=0, unit="KiB", description="chunk size: a crash can "
+        chunk_kb: int = param(64, gt=0, le=65536, unit="KiB", description="chunk size: a crash can "
                               "lose at most the chunk being filled")
         flush_s: float = param(0.5, gt=0, unit="s", description="flush to the operating "
                                "system at least this often (wall time)")
+        wall_clock: bool = param(True, description="incident-log entries carry the "
+                                 "wall-clock time they were written ('wall')")
 
     def start(self) -> None:
         from mcap.writer import CompressionType, Writer
@@ -102,34 +51,38 @@ class McapRecorderSink(FileSink):
         self._writer = Writer(self._fh, chunk_size=self.params.chunk_kb * 1024,
                               compression=comp)
         self._writer.start(profile="", library="firenav")
-        self._schemas: dict[type, int] = {}
+        self.topics = FoxgloveTopics.of_context(self.ctx, wall_clock=self.params.wall_clock)
+        self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._seq: dict[str, int] = {}
+        self._plan_written = False
         self._next_flush = time.monotonic() + self.params.flush_s
 
-    def _channel(self, stream: str, msg: Message) -> int:
-        cid = self._channels.get(stream)
+    def _channel(self, rec: Record) -> int:
+        cid = self._channels.get(rec.topic)
         if cid is None:
-            cls = type(msg)
-            sid = self._schemas.get(cls)
+            sid = self._schemas.get(rec.schema_name)
             if sid is None:
-                sid = self._schemas[cls] = self._writer.register_schema(
-                    name=f"firenav.{cls.__name__}", encoding="jsonschema",
-                    data=json.dumps(json_schema(cls)).encode())
-            cid = self._channels[stream] = self._writer.register_channel(
-                topic=stream, message_encoding="json", schema_id=sid,
-                metadata={"message_kind": cls.kind})
+                sid = self._schemas[rec.schema_name] = self._writer.register_schema(
+                    name=rec.schema_name, encoding=rec.schema_encoding, data=rec.schema_data)
+            cid = self._channels[rec.topic] = self._writer.register_channel(
+                topic=rec.topic, message_encoding=rec.message_encoding, schema_id=sid)
         return cid
 
+    def _write(self, rec: Record) -> None:
+        seq = self._seq[rec.topic] = self._seq.get(rec.topic, 0) + 1
+        self._writer.add_message(self._channel(rec), log_time=rec.log_time,
+                                 publish_time=rec.log_time, sequence=seq, data=rec.data)
+
     def handle(self, stream: str, msg: Message) -> None:
-        cid = self._channel(stream, msg)
-        t_ns = round(msg.t * 1e9) if math.isfinite(msg.t) else 0
-        if t_ns < 0:
+        if math.isfinite(msg.t) and msg.t < 0:
             self.ctx.count("negative_times")
-            t_ns = 0
-        seq = self._seq[stream] = self._seq.get(stream, 0) + 1
-        self._writer.add_message(cid, log_time=t_ns, publish_time=t_ns, sequence=seq,
-                                 data=message_json(msg))
+        if not self._plan_written:  # the walls, at the time of the first message
+            self._plan_written = True
+            for rec in self.topics.building_records(msg.t):
+                self._write(rec)
+        for rec in self.topics.records(stream, msg):
+            self._write(rec)
         now = time.monotonic()
         if now >= self._next_flush:
             self._next_flush = now + self.params.flush_s
@@ -138,4 +91,3 @@ class McapRecorderSink(FileSink):
     def finish(self) -> None:
         self._writer.finish()
         self._fh.close()
-

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import IO
 
-from ..contract import param, Params
+from ..contract import OutputName, Params, param
 from ..messages import PoseEstimate
 from ..tracks import CSV_HEADER, TrackStore, pose_csv_row, write_geojson
 from ..contract import FileSink
@@ -16,7 +16,7 @@ class CsvTracks(FileSink):
     inputs = (PoseEstimate,)
 
     class Params(Params):
-        file: str = param("{stream}.csv", description="file name under the output folder; "
+        file: OutputName = param("{stream}.csv", description="file name under the output folder; "
                           "{stream} is replaced by the input stream (dots become _)")
         flush_every: int = param(50, ge=1, description="flush to disk every this many rows, "
                                  "so a crash loses at most that many")
@@ -53,7 +53,7 @@ class GeoJsonTracks(FileSink):
     inputs = (PoseEstimate,)
 
     class Params(Params):
-        file: str = param("tracks.geojson", description="file name under the output folder")
+        file: OutputName = param("tracks.geojson", description="file name under the output folder")
 
     def start(self) -> None:
         self._store = TrackStore()

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..contract import FileSink, NoBuilding, Params, param
+from ..contract import FileSink, NoBuilding, OutputName, Params, param
 from ..messages import GroundTruth, PoseEstimate
 from ..tracks import Track, TrackStore
 
@@ -50,7 +50,7 @@ class TrackPlotSink(FileSink):
     inputs = (PoseEstimate, GroundTruth)
 
     class Params(Params):
-        file: str = param("tracks.png", description="file name under the output folder")
+        file: OutputName = param("tracks.png", description="file name under the output folder")
         ellipse_every: float = param(10.0, unit="s", gt=0, description="draw a 2-sigma "
                                      "position ellipse this often along each track")
         dpi: int = param(110, ge=30, le=600, description="image resolution")

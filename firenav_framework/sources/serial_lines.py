@@ -15,7 +15,7 @@ class LineParams(LiveParams):
 
     terminator: str = param("\n", min_length=1, description="line terminator "
                             "(YAML escapes like \"\\r\\n\" work)")
-    max_line: int = param(4096, gt=0, unit="B", description="longer lines are decode errors")
+    max_line: int = param(4096, gt=0, le=1 << 20, unit="B", description="longer lines are decode errors")
 
 
 class SerialLinesSource(LiveSource):

@@ -20,7 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, ClassVar
 
-from ..contract import Params, Source, param
+from ..contract import OutputName, Params, Source, param
 from ..messages import Diagnostic, Message, RawFrame
 from . import clock
 from .health import LinkMonitor
@@ -36,7 +36,7 @@ class LiveParams(Params):
 
     record: bool = param(True, description="write every frame to disk as it arrives, "
                          "before decoding (turn off only for throw-away tests)")
-    record_dir: str = param("raw", description="folder for the recordings, under the "
+    record_dir: OutputName = param("raw", description="folder for the recordings, under the "
                             "output folder; each source writes into <record_dir>/<id>/")
     rotate_mb: float = param(64.0, unit="MiB", gt=0, description="start a new log file "
                              "when the current one reaches this size")
@@ -82,10 +82,7 @@ class LiveSource(Source):
 
     # -- the loop -----------------------------------------------------------------------
     def record_folder(self) -> Path:
-        p = Path(self.params.record_dir).expanduser()
-        if not p.is_absolute():
-            p = (self.ctx.output_dir or Path("out")) / p
-        return p / self.ctx.id
+        return (self.ctx.output_dir or Path("out")) / self.params.record_dir / self.ctx.id
 
     def stop(self) -> None:
         self._stopping.set()

@@ -87,6 +87,12 @@ def _msgid(pkt: bytes) -> int:
     return pkt[5]
 
 
+def checksum_ok(arr: np.ndarray, i: int, pkt: bytes) -> bool:
+    """Whether packet ``pkt``, found at ``arr[i]`` (the buffer as uint8), has the right
+    checksum for the dialect (False for a message id it does not know)."""
+    return _checksum_ok(arr, i, pkt, dialect())
+
+
 def _checksum_ok(arr: np.ndarray, i: int, pkt: bytes, tables: Dialect) -> bool:
     extra = tables.crc_extra.get(_msgid(pkt))
     if extra is None:

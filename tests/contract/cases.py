@@ -36,10 +36,33 @@ def _recording(tmp: Path) -> dict[str, Any]:
     return {"params": {"path": str(good)}, "faulty_params": [{"path": str(bad)}]}
 
 
+def _barometer_lines() -> dict[str, Any]:
+    """30 s of barometer lines (no simulated barometer yet): ff1 and ff2 worn, ff1
+    climbing after the 10 s zeroing. No reference barometer, so that each firefighter's
+    lines alone give heights (the reset-refeed check feeds one firefighter's)."""
+    import numpy as np
+    from firenav_framework.codecs import to_raw_frames
+    from firenav_framework.codecs.baro_lines import BaroLinesCodec, BaroReading
+    rng = np.random.default_rng(5)
+    readings = []
+    for k, t in enumerate(np.arange(0.0, 30.0, 0.1)):
+        climb = max(0.0, t - 10.0) * 0.12 * 3.5 / 0.29  # Pa: 0.12 m/s up
+        readings += [BaroReading(float(t), "ff1/baro", 101_400.0 - climb + rng.normal(0, 2)),
+                     BaroReading(float(t) + 0.05, "ff2/baro", 101_250.0 + rng.normal(0, 2))]
+    import dataclasses
+    codec, frames = BaroLinesCodec(), []
+    for r in sorted(readings):   # one serial line per barometer, mapped to its wearer
+        (f,) = to_raw_frames(codec.encode([r]), transport="serial", device=r.device)
+        frames.append(dataclasses.replace(f, agent=r.device.split("/")[0]))
+    return {"params": {"reference": ""}, "sample_input": [("baro.raw", f) for f in frames]}
+
+
 def setup(kind: str, name: str, tmp: Path) -> dict[str, Any]:
     """Keyword arguments of :func:`firenav_framework.testing.plugin_case` for a plugin."""
     if (kind, name) == ("source", "recording"):
         return _recording(tmp)
+    if (kind, name) == ("sensor", "barometer"):
+        return _barometer_lines()
     params: dict[str, Any] = {
         ("source", "simulator"): {"duration": 10.0},
         ("source", "can_bus"): {"interface": "virtual", "channel": f"conformance-{tmp.name}"},
@@ -47,6 +70,9 @@ def setup(kind: str, name: str, tmp: Path) -> dict[str, Any]:
         ("source", "udp_lines"): {"bind": f"127.0.0.1:{free_udp_port()}"},
         ("source", "serial_lines"): {"url": "loop://"},
         ("sink", "live_view"): {"port": 0},
+        ("sink", "foxglove_live"): {"port": 0},
+        # the wall-clock column is when a line was written: two runs differ by design
+        ("sink", "diagnostics_log"): {"wall_clock": False},
         ("sink", "mavlink_out"): {"url": f"udpout:127.0.0.1:{free_udp_port()}"},
     }.get((kind, name), {})
     return {"params": params}
@@ -79,6 +105,11 @@ def _rfid():
             RfidEvent(2.0, "DEPLOY", "ff1/rfid", "E2BB02")]
 
 
+def _baro():
+    from firenav_framework.codecs.baro_lines import BaroReading
+    return [BaroReading(1.0, "ff1/baro", 101325.25, 294.65), BaroReading(1.1, "base/baro", 101337.5)]
+
+
 CODEC_SAMPLES.update({
     "can_imu": lambda: {"records": _imu_block(), "address": "node1"},
     "mavlink_imu": lambda: {"records": _imu_block(), "address": "sys1/comp1/imu0"},
@@ -86,4 +117,5 @@ CODEC_SAMPLES.update({
     "uwb_can": lambda: {"records": _twr(), "address": "1"},
     "uwb_lines": lambda: {"records": _twr(), "address": "1"},
     "rfid_lines": lambda: {"records": _rfid(), "address": "ff1/rfid"},
+    "baro_lines": lambda: {"records": _baro(), "address": "ff1/baro"},
 })

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import json
+import time
+from datetime import datetime
 
 import numpy as np
 
@@ -42,9 +44,12 @@ def test_diagnostics_log_writes_one_json_object_per_line(tmp_path):
                    text="estimate not trustworthy")
     run_component(DiagnosticsLogSink, {}, [("pf.diagnostics", d)], output_dir=tmp_path)
     (line,) = (tmp_path / "diagnostics.jsonl").read_text().splitlines()
-    assert json.loads(line) == {"t": 1.5, "stream": "pf.diagnostics", "component": "pf",
-                                "agent": "ff2", "level": "warning", "code": "map_error",
-                                "active": True, "text": "estimate not trustworthy"}
+    entry = json.loads(line)
+    wall = datetime.fromisoformat(entry.pop("wall"))  # when the line was written
+    assert abs(wall.timestamp() - time.time()) < 600
+    assert entry == {"t": 1.5, "when": "t=1.5 s", "stream": "pf.diagnostics",
+                     "component": "pf", "agent": "ff2", "level": "warning",
+                     "code": "map_error", "active": True, "text": "estimate not trustworthy"}
 
 
 def test_track_plot_draws_the_same_png_in_a_renderer_process(tmp_path):

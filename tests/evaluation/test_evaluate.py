@@ -7,6 +7,8 @@ import pytest
 
 from firenav_framework.cli import main
 from firenav_framework.evaluation import EvaluationError, evaluate
+from firenav_framework.evaluation.report import write_report
+from firenav_framework.scaleout import SerialExecutor, Task
 
 INS = """\
 name: {name}
@@ -104,3 +106,32 @@ def test_real_walk_is_evaluated_at_its_surveyed_strides(shared_data, repo, tmp_p
     assert 40 < f.distance_m < 55 and f.n > 20
     assert f.mean_pct_distance < 2.0
     assert b.rmse_m <= f.rmse_m + 1e-9       # fitting on every checkpoint is optimistic
+
+
+def _broken_run(run):
+    raise RuntimeError(f"simulated crash of seed {run.seed}")
+
+
+class CrashOnSeed1(SerialExecutor):
+    """The serial executor, but the run of seed 1 crashes (as a buggy plugin would)."""
+
+    def run(self, tasks, progress=None):
+        tasks = [Task(t.key, t.label, _broken_run, t.args) if t.args[0].seed == 1 else t
+                 for t in tasks]
+        return super().run(tasks, progress)
+
+
+def test_a_failed_run_is_reported_and_the_others_are_scored(pipelines, tmp_path):
+    good, _ = pipelines
+    ev = evaluate(good, seeds=3, executor=CrashOnSeed1())
+    assert [r.seed for r in ev.runs] == [0, 2]
+    assert [(f.seed, f.error, f.attempts) for f in ev.failed] == [
+        (1, "RuntimeError: simulated crash of seed 1", 2)]
+    alone = evaluate(good, seeds=[0, 2])
+    assert ev.overall == alone.overall                  # the failure cost the others nothing
+    doc = ev.summary()
+    assert doc["failed"] == [{"seed": 1, "error": "RuntimeError: simulated crash of seed 1",
+                              "attempts": 2}]
+    assert doc["runs"] == 2 and doc["spread"]["rmse_m"]["n"] == 2
+    rep = write_report(ev, tmp_path / "rep").read_text()
+    assert "- seed 1 FAILED after 2 attempts (not scored): RuntimeError: simulated crash" in rep

@@ -63,9 +63,9 @@ def send_as_is(player: DevicePlayer, block: ImuBlock, link: str, frames: list) -
     player.transmit(link, frames)
 
 
-@lru_cache(maxsize=1)
-def simulation():
-    return simulate(load_scenario(SCENARIO), 0)
+@lru_cache(maxsize=2)
+def simulation(scenario: Path = SCENARIO):
+    return simulate(load_scenario(scenario), 0)
 
 
 @lru_cache(maxsize=1)
@@ -127,11 +127,15 @@ class _Gcs:
 
 
 def run_live(out: Path, *, speed: float = 2.0, tamper: Tamper = send_as_is,
-             extra_overrides: tuple[str, ...] = ()) -> LiveRun:
-    """Play the scenario onto the links of a live field-live.yaml run; return the run."""
+             extra_overrides: tuple[str, ...] = (), pipeline: Path = PIPELINE,
+             scenario: Path = SCENARIO,
+             during: Callable[[Runner], None] | None = None) -> LiveRun:
+    """Play the scenario onto the links of a live run of ``pipeline`` (field-live.yaml by
+    default); ``during(runner)`` starts anything else the run should receive (it returns
+    at once) once the links are open. Returns the run."""
     channel, port = f"fieldkit-{uuid.uuid4().hex}", free_port()
     gcs = _Gcs()
-    spec = load_pipeline(PIPELINE, live_overrides(channel, port, gcs.port) + list(extra_overrides))
+    spec = load_pipeline(pipeline, live_overrides(channel, port, gcs.port) + list(extra_overrides))
     runner = Runner(spec, output_dir=out)
     box: dict = {}
     thread = threading.Thread(target=lambda: box.setdefault("result", runner.run()),
@@ -145,8 +149,11 @@ def run_live(out: Path, *, speed: float = 2.0, tamper: Tamper = send_as_is,
         bus = can.Bus(interface="virtual", channel=channel)
         conn = mavutil().mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=255)
         player = DevicePlayer(can_bus=bus, mavlink=conn, speed=speed)
-        roster = Roster.of_scenario(simulation().scenario, MAV_AGENTS)
-        for _, block in simulation().stream(0.01, {"imu"}):
+        sim = simulation(scenario)
+        roster = Roster.of_scenario(sim.scenario, MAV_AGENTS)
+        if during is not None:
+            during(runner)
+        for _, block in sim.stream(0.01, {"imu"}):
             player.assignment(block, roster)
             player.pace(block.t)
             encoded = player.encode(block)

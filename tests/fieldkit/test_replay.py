@@ -59,8 +59,8 @@ def test_replay_gives_the_live_runs_frames_byte_for_byte(tmp_path):
     th.join(60)
     assert not th.is_alive()
     live = _mcap(tmp_path / "live" / "frames.mcap")
-    assert sum(1 for t, _, _ in live if t == "can.raw") == 600
-    assert sum(1 for t, _, _ in live if t == "mav.raw") == 200
+    assert sum(1 for t, _, _ in live if t == "/can.raw") == 600
+    assert sum(1 for t, _, _ in live if t == "/mav.raw") == 200
     assert len(list((tmp_path / "live" / "raw" / "can").iterdir())) > 1, "rotated"
 
     assert main(["replay", str(tmp_path / "live" / "raw"), "--pipeline", str(pfile),

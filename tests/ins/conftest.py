@@ -10,6 +10,7 @@ from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsP
 
 #: device (z-down) -> FLU axes of the real datasets' MicroStrain
 FLU = np.array([1.0, -1.0, -1.0])
+REPO = Path(__file__).resolve().parents[2]
 
 
 def run_engine(t, acc, gyro, params: ZuptInsParams | None = None, rate: float = 200.0,
@@ -23,15 +24,31 @@ def run_engine(t, acc, gyro, params: ZuptInsParams | None = None, rate: float = 
     return BlockResult.concat(parts)
 
 
+def vicon_trial(shared_data: Path, name: str):
+    """A PyShoe VICON trial of ../shared/data by its name (arrays, device frame)."""
+    from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
+    return load_vicon_trial(shared_data / "pyshoe-vicon" / f"{name}.mat")
+
+
 @pytest.fixture(scope="session")
 def vicon_walk(shared_data: Path):
-    """A normal-walking PyShoe VICON trial (arrays, FLU)."""
-    from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
-    return load_vicon_trial(shared_data / "pyshoe-vicon" / "2017-11-22-11-22-03.mat")
+    """A normal-walking PyShoe VICON trial."""
+    return vicon_trial(shared_data, "2017-11-22-11-22-03")
 
 
 @pytest.fixture(scope="session")
 def vicon_run(shared_data: Path):
     """A running PyShoe VICON trial (stance statistic 100x higher than walking)."""
-    from firenav_framework.sources.readers.foot_imu_datasets import load_vicon_trial
-    return load_vicon_trial(shared_data / "pyshoe-vicon" / "2017-11-27-11-12-44.mat")
+    return vicon_trial(shared_data, "2017-11-27-11-12-44")
+
+
+@pytest.fixture(scope="session")
+def vicon_crawl(shared_data: Path):
+    """A crawling PyShoe VICON trial (hands and knees: the boot rests upside down)."""
+    return vicon_trial(shared_data, "2018-02-22-10-09-36")
+
+
+@pytest.fixture(scope="session")
+def vicon_crawl_tuning(shared_data: Path):
+    """A crawling VICON trial of the tuning half (even index in name order)."""
+    return vicon_trial(shared_data, "2018-02-22-10-10-29")

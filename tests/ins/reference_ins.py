@@ -69,12 +69,17 @@ def level(f: np.ndarray) -> np.ndarray:
 
 
 # -- detector -------------------------------------------------------------------------
-def statistic(acc: np.ndarray, gyro: np.ndarray, cfg: DetectorConfig) -> np.ndarray:
-    """log10 T of every sample, windows centred and truncated at both ends."""
+def statistic(acc: np.ndarray, gyro: np.ndarray, cfg: DetectorConfig
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """log10 T and ``up`` (z of the mean specific force's direction, 1 unless that mean
+    is gravity) of every sample, windows centred and truncated at both ends."""
     n, h = len(acc), cfg.window // 2
-    out = np.empty(n)
+    out, up = np.empty(n), np.empty(n)
     for k in range(n):
         a, w = acc[max(0, k - h):k + h + 1], gyro[max(0, k - h):k + h + 1]
+        m = a.mean(axis=0)
+        norm = np.linalg.norm(m)
+        up[k] = m[2] / norm if abs(norm - cfg.gravity) < detectors.REST_GRAVITY * cfg.gravity else 1.0
         if cfg.kind == detectors.AMVD:
             tot = np.sum((a - a.mean(axis=0)) ** 2) / cfg.sigma_a ** 2
         elif cfg.kind == detectors.ARED:
@@ -84,32 +89,43 @@ def statistic(acc: np.ndarray, gyro: np.ndarray, cfg: DetectorConfig) -> np.ndar
             u = cfg.gravity * m / np.linalg.norm(m)
             tot = np.sum((a - u) ** 2) / cfg.sigma_a ** 2 + np.sum(w ** 2) / cfg.sigma_g ** 2
         out[k] = math.log10(max(tot / len(a), 1e-300))
-    return out
+    return out, up
 
 
-def decide(s: np.ndarray, cfg: DetectorConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Zero-velocity flags and thresholds (log10) of every sample."""
+def decide(s: np.ndarray, up: np.ndarray, cfg: DetectorConfig
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Zero-velocity flags, thresholds (log10) and gait modes of every sample."""
     n = len(s)
-    thr = np.empty(n)
+    thr, mode = np.empty(n), np.zeros(n)
     for d in range(n):
         if cfg.kind != detectors.ADAPTIVE:
             thr[d] = math.log10(cfg.threshold)
             continue
         hi = min(d + cfg.ahead, n - 1) + 1
         swing = s[max(0, d - cfg.back):hi].max()
-        floor = s[max(0, d - cfg.floor_back):hi].min()
-        low = math.log10(cfg.low)
-        if swing - floor < cfg.prominence:
+        lo = max(0, d - cfg.floor_back)
+        window = s[lo:hi]
+        j = lo + len(window) - 1 - int(np.argmin(window[::-1]))   # the newest minimum
+        floor = s[j]
+        if up[j] < cfg.crawl_up:
+            mode[d] = detectors.MODE_CRAWL
+            low, high = math.log10(cfg.crawl_low), math.log10(cfg.crawl_high)
+            kappa, prominence = cfg.crawl_kappa, cfg.crawl_prominence
+        else:
+            low, high = math.log10(cfg.low), math.log10(cfg.high)
+            kappa, prominence = cfg.kappa, cfg.prominence
+        if swing - floor < prominence:
             thr[d] = low
         else:
-            thr[d] = min(max(floor + cfg.kappa * (swing - floor), low), math.log10(cfg.high))
+            thr[d] = min(max(floor + kappa * (swing - floor), low), high)
     zv = s < thr
-    # drop zero-velocity runs shorter than min_stance
+    # drop the samples of zero-velocity runs shorter than their mode's min_stance
+    need = np.where(mode == detectors.MODE_CRAWL, cfg.crawl_min_stance, cfg.min_stance)
     edges = np.flatnonzero(np.diff(np.concatenate(([0], zv.astype(int), [0]))))
+    keep = zv.copy()
     for start, end in zip(edges[::2], edges[1::2]):
-        if end - start < cfg.min_stance:
-            zv[start:end] = False
-    return zv, thr
+        keep[start:end] = end - start >= need[start:end]
+    return keep, thr, mode
 
 
 # -- filter ---------------------------------------------------------------------------
@@ -122,6 +138,9 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
     P = np.zeros((n, n))
     aligned, align_acc, align_gyro, align_n = False, np.zeros(3), np.zeros(3), 0
     in_stance, swing_n, stance_t0, t_event, t_still, stance_z = False, 0, 0.0, 0.0, 0.0, 0.0
+    floor_z = None                # height of the current level floor
+    stance_xy = np.zeros(2)       # horizontal position at the last stance onset
+    stairs = 0                    # consecutive stair steps, signed (up +)
     t_prev = None
     out = np.zeros((len(t), eskf.N_OUT))
     events = []
@@ -164,8 +183,20 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
         H[range(len(rows)), rows] = 1.0
         return H
 
+    pending, stance_corr = False, np.zeros(3)   # a step waiting for step_settle, and the
+                                                # position correction at its onset
+
+    def step(t_step):
+        nonlocal t_event, t_still, pending
+        event(t_step, eskf.EVENT_STEP, stance_corr)
+        t_event = t_still = t_step
+        clone()
+        pending = False
+
     for k, tk in enumerate(t):
         dt = 0.0 if t_prev is None else min(tk - t_prev, cfg.max_dt)
+        if pending and not zv[k]:
+            step(t_prev)        # the stance ended before settling: its last still sample
         t_prev = tk
         corr = np.zeros(3)
         if not aligned:
@@ -175,6 +206,7 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                 align_n += 1
                 if align_n >= cfg.align_samples:
                     aligned = True
+                    floor_z, stance_xy, stance_z, stairs = None, np.zeros(2), 0.0, 0
                     q = level(align_acc / align_n)
                     if cfg.align_gyro_bias:
                         bg = align_gyro / align_n
@@ -213,14 +245,33 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
             if zv[k]:
                 corr += update(sel([3, 4, 5]), -v, cfg.zupt_sigma ** 2)
                 if not in_stance:
-                    if cfg.height_correction and abs(p[2] - stance_z) < cfg.level_threshold:
-                        corr += update(sel([2]), np.array([stance_z - p[2]]), cfg.level_sigma ** 2)
-                    stance_z, stance_t0 = p[2], tk
-                    event(tk, eskf.EVENT_STEP, corr)
-                    t_event = t_still = tk
-                    clone()
-                    in_stance = True
-                elif tk - t_still >= cfg.still_period:
+                    if cfg.height_correction:
+                        long_step = math.hypot(*(p[:2] - stance_xy)) >= cfg.stair_run
+                        rise = p[2] - stance_z
+                        if not long_step and abs(rise) >= cfg.level_threshold:
+                            way = 1 if rise > 0 else -1
+                            stairs = stairs + way if stairs * way > 0 else way
+                            if abs(stairs) >= 2:
+                                floor_z = None
+                        else:
+                            single, stairs = stairs != 0, 0
+                            if floor_z is None or (not long_step and not single and
+                                                   abs(floor_z - p[2]) >= cfg.level_threshold):
+                                floor_z = p[2]
+                            else:   # height-only update, Joseph form for the gain on z alone
+                                d = floor_z - p[2]
+                                prior = max(P[2, 2], d * d)
+                                gain = prior / (prior + cfg.level_sigma ** 2)
+                                p = p + np.array([0.0, 0.0, gain * d])
+                                corr[2] += gain * d
+                                P[2, 2] = prior
+                                A = np.eye(n)
+                                A[2, 2] = 1.0 - gain
+                                P[:] = A @ P @ A.T
+                                P[2, 2] += gain * gain * cfg.level_sigma ** 2
+                    stance_xy, stance_z, stance_t0 = p[:2].copy(), p[2], tk
+                    stance_corr, pending, in_stance = corr.copy(), True, True
+                elif not pending and tk - t_still >= cfg.still_period:
                     event(tk, eskf.EVENT_STILL, corr)
                     t_event = t_still = tk
                     clone()
@@ -229,7 +280,9 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                     H = sel([16, 17, 18])
                     S = H @ P @ H.T + cfg.zaru_sigma ** 2 * np.eye(3)
                     if w @ np.linalg.solve(S, w) < cfg.zaru_gate:
-                        update(H, w, cfg.zaru_sigma ** 2)
+                        corr += update(H, w, cfg.zaru_sigma ** 2)
+                if pending and tk - stance_t0 >= cfg.step_settle:
+                    step(tk)
             else:
                 if in_stance:
                     in_stance, swing_n = False, 0
@@ -243,13 +296,15 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
         row[eskf.O_YAW] = yaw(q)
         row[eskf.O_COV:eskf.O_COV + 10] = P[np.ix_(cur, cur)][np.triu_indices(4)]
         row[eskf.O_ALIGNED] = float(aligned)
+    if pending:
+        step(t_prev)            # the recording ended in the stance
     return out, np.array(events).reshape(-1, eskf.N_EVENT)
 
 
 def run(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, dcfg: DetectorConfig,
         fcfg: FilterConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Detector then filter over a whole recording: (states, events, log10 statistic)."""
-    s = statistic(acc, gyro, dcfg)
-    zv, _ = decide(s, dcfg)
+    s, up = statistic(acc, gyro, dcfg)
+    zv, _, _ = decide(s, up, dcfg)
     states, events = run_filter(t, acc, gyro, zv, fcfg)
     return states, events, s

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firenav_plugins.estimators.zupt_ins import ZuptInsParams, eskf
+from firenav_plugins.estimators.zupt_ins import ZuptInsParams, detectors, eskf
 
 from . import reference_ins as ref
 from .conftest import FLU, run_engine
@@ -35,6 +35,15 @@ def test_real_trial_matches_reference(vicon_run, options):
     s = slice(0, N_REAL)
     _compare(vicon_run.ts[s], vicon_run.accel[s] * FLU, vicon_run.gyro[s] * FLU,
              ZuptInsParams(**options))
+
+
+def test_real_crawl_matches_reference(vicon_crawl):
+    """Crawling: the adaptive detector's crawl levels take over (resting foot inverted)."""
+    s = slice(0, N_REAL)
+    params = ZuptInsParams()
+    _compare(vicon_crawl.ts[s], vicon_crawl.accel[s] * FLU, vicon_crawl.gyro[s] * FLU, params)
+    res = run_engine(vicon_crawl.ts[s], vicon_crawl.accel[s] * FLU, vicon_crawl.gyro[s] * FLU)
+    assert (res.stat[:, 2] == detectors.MODE_CRAWL).mean() > 0.9
 
 
 @pytest.mark.parametrize("detector,threshold", [("ared", None), ("amvd", 1e4)])

@@ -61,8 +61,11 @@ def test_synthetic_walk_reproduced(noisy):
     res = run_engine(rec.t, rec.accel, rec.gyro)
     steps = res.events[res.events[:, eskf.E_KIND] == eskf.EVENT_STEP]
     assert len(steps) == len(STAIRS)
-    # one event per stance onset, within the detector's margin of the true onset
-    assert np.all(np.abs(steps[:, eskf.E_T] - rec.stance_onsets) < 0.05)
+    # one event per stance, its onset within the detector's margin of the true onset, the
+    # event itself step_settle into the stance (these stances last longer)
+    assert np.all(np.abs(steps[:, eskf.E_STANCE_T0] - rec.stance_onsets) < 0.05)
+    settle = ZuptInsParams().outputs.step_settle
+    np.testing.assert_allclose(steps[:, eskf.E_T] - steps[:, eskf.E_STANCE_T0], settle, atol=0.006)
     pos = steps[:, eskf.E_POS:eskf.E_POS + 3]
     err = np.linalg.norm(pos - rec.footprints[1:], axis=1)
     assert err.max() < 0.02, err

@@ -18,6 +18,7 @@ from firenav_framework.messages import IMU_FLAG_BITS, ImuBlock, RawFrame
 from firenav_framework.testing import check_plugin, make_component
 from firenav_framework.yaml_locations import ConfigError
 from firenav_plugins.sensors.foot_imu import FootImuSensor
+from firenav_plugins.sensors.foot_imu.calibration import axes_matrix
 from firenav_plugins.sensors.foot_imu.clock import DeviceClock
 
 G = 9.81
@@ -408,8 +409,9 @@ def test_a_device_reboot_reanchors_its_clock_and_is_reported():
            for i, f in enumerate(frames)]
     out, diags, counts = run({}, raw)
     tk = joined(out)[0]
-    assert counts == {"clock_resyncs": 1} and len(tk) == 100
-    np.testing.assert_allclose(tk, 100.0 + np.arange(100) * 0.005, atol=1e-6)
+    # the new clock is confirmed by its second sample: its first one is dropped
+    assert counts == {"clock_resyncs": 1, "time_backwards_samples": 1} and len(tk) == 99
+    np.testing.assert_allclose(tk, 100.0 + np.delete(np.arange(100), 50) * 0.005, atol=1e-6)
     assert "imu_clock_resyncs" in [d.code for d in diags]
 
 
@@ -468,14 +470,17 @@ def test_device_clock_keeps_device_time_and_reanchors_only_on_real_jumps():
     assert clock.to_pipeline(100.005, 5.013) == (pytest.approx(5.005), False)  # jittery frame
     # a 3 s link stall then a backlog: device time continues, no re-anchor
     assert clock.to_pipeline(100.010, 8.0) == (pytest.approx(5.010), False)
-    # reboot: device clock restarts near 0
+    # reboot: device clock restarts near 0; its next sample confirms the new clock
     t, resynced = clock.to_pipeline(0.002, 8.5)
-    assert resynced and t == pytest.approx(8.5)
-    assert clock.to_pipeline(0.007, 8.505) == (pytest.approx(8.505), False)
+    assert not resynced and t <= 5.010            # held on the old clock: screened out
+    t, resynced = clock.to_pipeline(0.007, 8.505)
+    assert resynced and t == pytest.approx(8.505)
+    assert clock.to_pipeline(0.012, 8.51) == (pytest.approx(8.51), False)
     # device clock leaps 50 s ahead while frames advance 5 ms
-    t, resynced = clock.to_pipeline(50.0, 8.51)
-    assert resynced and t == pytest.approx(8.51)
-    assert clock.to_pipeline(float("nan"), 8.52)[1] is False
+    assert clock.to_pipeline(50.0, 8.515)[1] is False
+    t, resynced = clock.to_pipeline(50.005, 8.52)
+    assert resynced and t == pytest.approx(8.52)
+    assert clock.to_pipeline(float("nan"), 8.53)[1] is False
 
 
 def test_degraded_mode_decodes_a_firefighter_in_longer_blocks_and_loses_nothing():
@@ -524,3 +529,22 @@ def test_clean_blocks_take_the_short_path_with_the_result_of_every_rule():
         assert a.counts == b.counts and a.longest_gap == b.longest_gap
         np.testing.assert_array_equal(fast.times, full.times)
         np.testing.assert_array_equal(fast.values, full.values)
+
+
+@pytest.mark.parametrize("declared, device_up, suggested", [
+    (["x", "-y", "-z"], 2, "[x, y, z]"),       # a z-up device run through foot-ins.yaml
+    (["x", "y", "z"], 0, "[-z, y, x]"),        # gravity on the device's x axis
+])
+def test_the_axes_check_names_the_axes_that_put_gravity_up(declared, device_up, suggested):
+    """At rest the specific force points along the device's up axis; under the declared
+    axes it reads downwards or sideways, and the check names the mapping that fixes it."""
+    t, _, gyro = motion(200)
+    up = np.zeros(3)
+    up[device_up] = 9.81
+    _, diags, _ = run({"axes": declared}, blocks(t, np.tile(up, (len(t), 1)),
+                                                  np.zeros_like(gyro)))
+    (d,) = [d for d in diags if d.code == "imu_axes_check"]
+    assert f"set `axes: {suggested}`" in d.text
+    # the suggested mapping really puts gravity on +z
+    fixed = axes_matrix([a.strip() for a in suggested[1:-1].split(",")]) @ up
+    np.testing.assert_allclose(fixed, [0.0, 0.0, 9.81])

@@ -23,6 +23,7 @@ from firenav_framework.runner import PipelineBuildError, Runner
 from firenav_framework.sources.readers import (ReaderError, ReaderTable, ReadOptions,
                                                find_reader, imu_blocks, reader_table)
 from firenav_framework.formats.imu_csv import ImuCsvReader, write_imu_csv
+from firenav_framework.sources.readers.imu_csv import read_imu_text
 from firenav_framework.sources.recording import RecordingSource
 from firenav_framework.summary import summary_dict
 from firenav_framework.testing import make_component
@@ -42,9 +43,9 @@ def test_table_has_the_built_in_formats_and_ports():
 
 
 def test_lookup_by_suffix_name_or_suffix_name():
-    assert find_reader("x/WALK.CSV") is ImuCsvReader
+    assert find_reader("x/WALK.CSV") is read_imu_text
     assert find_reader("anything", "imu_csv") is ImuCsvReader
-    assert find_reader("anything.bin", "csv") is ImuCsvReader
+    assert find_reader("anything.bin", "csv") is read_imu_text
     with pytest.raises(ReaderError, match=r"no reader for '\.xyz' files; known: .*\.csv"):
         find_reader("a.xyz")
     with pytest.raises(ReaderError, match="unknown recording format 'cvs'"):

@@ -8,6 +8,8 @@ frame, z axis down (specific force about -9.8 m/s^2 on z at rest): the
 ``pyshoe-vicon/<date>.mat`` (UTIAS PyShoe, 56 trials)
     ``ts``, ``imu``, ``gt`` (VICON foot position at every sample), zero-velocity
     labels of five detectors. :func:`load_vicon_trial`.
+PyShoe's hallway and stair trials (``processed_data.mat``: ``imu``, ``gt``, ``gt_idx``)
+    sparse truth at the samples ``gt_idx``: :func:`read_pyshoe_sparse`.
 ``indoor-walks/walk_<n>.mat`` (self-collected building walks)
     ``timestamps``, ``imu_data``, ``strideIndex`` + ``GCP`` (surveyed footprint at
     each stride: the ground truth) and ``pyshoeTrajectory`` (PyShoe's LSTM-aided INS
@@ -41,7 +43,9 @@ from ...messages import GroundTruth, Message, PoseEstimate
 from ...formats.base import ReaderError, ReadOptions, imu_blocks
 
 __all__ = ["ViconTrial", "IndoorWalk", "load_vicon_trial", "load_indoor_walk",
-           "read_vicon_trial", "read_indoor_walk", "read_mat", "VICON_DETECTORS"]
+           "read_vicon_trial", "read_indoor_walk", "read_pyshoe_sparse", "read_mat",
+           "VICON_DETECTORS",
+           "vicon_motion", "VICON_MOTIONS"]
 
 #: Detector names of the ``zv_<det>_opt`` / ``G_<det>_opt`` variables, in the order
 #: that ``trial_error`` most likely follows (consistent with ``best_detector`` and
@@ -137,6 +141,47 @@ class IndoorWalk:
     def stride_times(self) -> np.ndarray:
         """(K,) time [s] of each GCP footprint."""
         return self.ts[self.stride_index]
+
+
+#: Motion classes of the VICON trials (:func:`vicon_motion`).
+VICON_MOTIONS = ("walk", "run", "crawl", "irregular")
+_REST_ACCEL = 0.5        # [m/s^2] |f| within this of 9.81 ...
+_REST_GYRO = 0.5         # [rad/s] ... and |w| below this: a resting foot
+_IRREGULAR_SPEED = 0.25  # [m/s] mean horizontal speed below which ...
+_IRREGULAR_RISE = 0.4    # [m] ... a height range above this is stepping on and off things
+_RUN_PEAK = 40.0         # [m/s^2] median of the 1-s peaks of |f| above which it is running
+_MOVING_GYRO = 3.0       # [rad/s] a 1-s window with a faster rotation is moving
+
+
+def vicon_motion(trial: ViconTrial) -> str:
+    """What the wearer does in a VICON trial: walk, run, crawl or irregular.
+
+    The dataset does not label its trials (its README: "some are crawling, running or
+    irregular motion"); PyShoe's own scripts name four walking and five running trials
+    (``train_motion_classifier.py``), and this rule agrees with all nine:
+
+    * ``crawl``: the resting foot is upside down (the median of the device's down axis
+      over resting samples points up: on hands and knees the boot lies on its toe cap);
+    * ``irregular``: the foot hardly travels (mean horizontal VICON speed under
+      0.25 m/s) but rises more than 0.4 m (stepping onto and off a platform in place);
+    * ``run``: the median over moving 1-s windows of the peak specific force exceeds
+      40 m/s^2 (4 g impacts; walking stays near 2-3.5 g);
+    * ``walk``: everything else.
+    """
+    an = np.linalg.norm(trial.accel, axis=1)
+    gn = np.linalg.norm(trial.gyro, axis=1)
+    rest = (np.abs(an - 9.81) < _REST_ACCEL) & (gn < _REST_GYRO)
+    if rest.any() and np.median(-trial.accel[rest, 2] / an[rest]) < 0.0:
+        return "crawl"
+    duration = float(trial.ts[-1] - trial.ts[0])
+    horizontal = float(np.sum(np.hypot(*np.diff(trial.gt[::10, :2], axis=0).T)))
+    if horizontal < _IRREGULAR_SPEED * duration and np.ptp(trial.gt[:, 2]) > _IRREGULAR_RISE:
+        return "irregular"
+    n = max(1, int(round(1.0 / float(np.median(np.diff(trial.ts))))))
+    k = len(an) // n
+    peaks = an[:k * n].reshape(k, n).max(axis=1)
+    moving = gn[:k * n].reshape(k, n).max(axis=1) > _MOVING_GYRO
+    return "run" if moving.any() and np.median(peaks[moving]) > _RUN_PEAK else "walk"
 
 
 # -- loading -------------------------------------------------------------------------
@@ -285,6 +330,45 @@ def read_indoor_walk(path: Path, options: ReadOptions) -> _MatRecording:
     return _MatRecording(walk.ts, [_imu_port(walk.ts, walk.imu, options), truth(), reference()])
 
 
+#: PyShoe's hallway and stair trials sample their IMU at 200 Hz (``ins_demos.py``: T=1/200).
+PYSHOE_RATE_HZ = 200.0
+_PYSHOE_SPARSE_KEYS = ("imu", "gt", "gt_idx")
+
+
+def read_pyshoe_sparse(path: Path, options: ReadOptions) -> _MatRecording:
+    """Reader for PyShoe's hallway and stair trials (``processed_data.mat``): ``imu``
+    (N, 6) as the VICON trials, ``ts`` (or 200 Hz), truth ``gt`` at the samples
+    ``gt_idx``: (M, 3) total-station points of a hallway trial, published on ``truth``
+    (stored y negated as for the VICON trials, frame ``pyshoe``), or the heights (M,) of a
+    stair trial, which are not a position: those are counted, not published."""
+    path = Path(path)
+    data = _loadmat(path)
+    imu = _matrix(data, "imu", path, cols=6)
+    n = len(imu)
+    ts = (_matrix(data, "ts", path, rows=n) if "ts" in data
+          else np.arange(n) / PYSHOE_RATE_HZ)
+    idx = _matrix(data, "gt_idx", path)
+    if np.any(idx != np.round(idx)) or np.any((idx < 0) | (idx >= n)):
+        raise ReaderError(f"{path}: gt_idx must hold sample indices 0..{n - 1}")
+    idx = idx.astype(np.int64)
+    gt = np.asarray(data["gt"], float)
+    ports = [_imu_port(ts, imu, options)]
+    if gt.ndim == 2 and gt.shape == (len(idx), 3):
+        gt = gt.copy()
+        gt[:, :2] *= ENU_FROM_DATASET_XY
+
+        def truth() -> Iterator[tuple[str, Message]]:
+            for i, p in zip(idx, gt):
+                yield "truth", GroundTruth(t=float(ts[i]), agent=options.agent,
+                                           device="pyshoe_gt", position=p.copy(),
+                                           frame="pyshoe")
+
+        ports.append(truth())
+    else:
+        options.count("height_only_truth", len(idx))
+    return _MatRecording(ts, ports)
+
+
 def read_mat(path: Path, options: ReadOptions) -> _MatRecording:
     """Pick the dataset reader from the variables the ``.mat`` file holds."""
     import scipy.io
@@ -293,15 +377,19 @@ def read_mat(path: Path, options: ReadOptions) -> _MatRecording:
         names = {name for name, _, _ in scipy.io.whosmat(str(path))}
     except (ValueError, TypeError, NotImplementedError) as exc:
         raise ReaderError(f"{path}: not a readable MATLAB file ({exc})") from None
+    if all(k in names for k in _PYSHOE_SPARSE_KEYS):
+        return read_pyshoe_sparse(path, options)
     if all(k in names for k in _VICON_KEYS):
         return read_vicon_trial(path, options)
     if all(k in names for k in _WALK_KEYS):
         return read_indoor_walk(path, options)
     raise ReaderError(
         f"{path}: unknown .mat content (variables: {', '.join(sorted(names)) or 'none'}); "
-        f"expected a PyShoe VICON trial ({', '.join(_VICON_KEYS)}) or an indoor walk "
+        f"expected a PyShoe VICON trial ({', '.join(_VICON_KEYS)}), a PyShoe hallway or "
+        f"stair trial ({', '.join(_PYSHOE_SPARSE_KEYS)}) or an indoor walk "
         f"({', '.join(_WALK_KEYS)})")
 
 
 READERS = {".mat": read_mat}
-FORMATS = {"pyshoe_vicon": read_vicon_trial, "indoor_walk": read_indoor_walk}
+FORMATS = {"pyshoe_vicon": read_vicon_trial, "indoor_walk": read_indoor_walk,
+           "pyshoe": read_pyshoe_sparse}

@@ -3,8 +3,9 @@
 Each record is ``<UNIX seconds with 6 decimals> <device> <escaped data>``; the file
 name's prefix (``serial-`` or ``udp-``) gives the transport. Frames are the ones the
 live source made (same conversion). A record that cannot be parsed (a torn last line
-after a crash, a hand-edited line) is skipped and counted (``bad_log_lines``).
-Rotated files of one recording are read in order.
+after a crash, a hand-edited line, a damaged region) is skipped and counted
+(``bad_log_lines``), and reading goes on with the next line. An empty log is reported
+(``empty_log``). Rotated files of one recording are read in order.
 """
 from __future__ import annotations
 
@@ -27,6 +28,8 @@ class LinesLogReader:
         self.options = options
         prefix = self.files[0].name.split("-", 1)[0]
         self.transport = prefix if prefix in TRANSPORTS else "serial"
+        if len(self.files) == 1 and self.files[0].stat().st_size == 0:
+            options.warn("empty_log", f"{self.files[0]}: empty log, no lines in it")
 
     def __iter__(self) -> Iterator[tuple[str, Message]]:
         for path in self.files:

@@ -8,14 +8,18 @@ files (port ``imu``, read by the IMU CSV reader) and the ground truth of
 ``truth.csv`` (port ``truth``), merged in time order.
 
 Lines that are not valid JSON, lack fields or have an unknown ``type`` are skipped and
-counted (``bad_rows``, ``unknown_records``); a missing IMU or truth file listed in the
-header is a :class:`ReaderError` when the file is opened.
+counted (``bad_rows``, ``unknown_records``); a file whose first line is not the header,
+or whose header lists a missing IMU or truth file, is a :class:`ReaderError` when the
+file is opened. A listed file that turns out unreadable (empty, garbage, cut off) costs
+only its own data: it is counted (``unreadable_files``) and reported, and every other
+firefighter's data go on. The inputs are merged by
+:func:`~firenav_framework.time_merge.merge_in_time`, so one device's clock jump or
+corrupt stamp does not hold the others back.
 """
 from __future__ import annotations
 
-import heapq
 import json
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +28,8 @@ from ...messages import (BreadcrumbDrop, GroundTruth, Message, Range, RssiReadin
                          TagDeployment, TagDetection)
 from ...formats.base import ReaderError, ReadOptions
 from ...formats.imu_csv import ImuCsvReader
+from ...time_merge import merge_in_time
+from ...timeline import TimelineConfig
 
 FORMAT = "firenav-sim-streams"
 
@@ -72,17 +78,23 @@ class SimStreamsReader:
     def __init__(self, path: Path, options: ReadOptions):
         self.path = Path(path)
         self.options = options
-        try:
-            with open(self.path, encoding="utf-8") as fh:
-                first = fh.readline()
-        except UnicodeDecodeError:
-            raise ReaderError(f"{self.path}: not UTF-8 text; expected JSON lines") from None
+        with open(self.path, "rb") as fh:
+            try:
+                first = fh.readline(1 << 20).decode("utf-8")
+            except UnicodeDecodeError:
+                raise ReaderError(f"{self.path}: not UTF-8 text; expected JSON lines") from None
         try:
             head = json.loads(first) if first.strip() else {}
         except json.JSONDecodeError:
             raise ReaderError(f"{self.path}: the first line is not JSON; expected a "
                               "firenav simulation streams file") from None
-        self.header = head if isinstance(head, dict) and head.get("format") == FORMAT else {}
+        if not (isinstance(head, dict) and head.get("format") == FORMAT):
+            raise ReaderError(f"{self.path}: " + ("the file is empty" if not first.strip()
+                              else "the first line is not its header") +
+                              f"; a firenav simulation streams file starts with "
+                              f'{{"format": "{FORMAT}", ...}} naming its IMU and truth files '
+                              "(`firenav simulate` writes it)")
+        self.header = head
         base = self.path.parent
         self.imu_files = [base / name for name in (self.header.get("imu_files") or {}).values()]
         truth = self.header.get("truth_file")
@@ -98,9 +110,9 @@ class SimStreamsReader:
 
     def _records(self) -> Iterator[tuple[str, Message]]:
         count = self.options.count
-        with open(self.path, encoding="utf-8") as fh:
+        with open(self.path, encoding="utf-8", errors="replace") as fh:
             for i, line in enumerate(fh):
-                if not line.strip() or (i == 0 and self.header):
+                if not line.strip() or i == 0:
                     continue
                 try:
                     rec = json.loads(line)
@@ -112,7 +124,7 @@ class SimStreamsReader:
                     count("bad_rows", 1)
 
     def _truth(self) -> Iterator[tuple[str, Message]]:
-        with open(self.truth_file, encoding="utf-8") as fh:
+        with open(self.truth_file, encoding="utf-8", errors="replace") as fh:
             fh.readline()
             for line in fh:
                 parts = line.rstrip("\n").split(",")
@@ -124,13 +136,26 @@ class SimStreamsReader:
                 except (ValueError, IndexError):
                     self.options.count("bad_rows", 1)
 
+    def _contained(self, path: Path, items: Callable[[], Iterable[tuple[str, Message]]]
+                   ) -> Iterator[tuple[str, Message]]:
+        """One listed file's messages; if it cannot be read (on) only it is lost."""
+        try:
+            yield from items()
+        except (ReaderError, ValueError, OSError) as exc:
+            self.options.count("unreadable_files", 1)
+            text = str(exc) if str(exc).startswith(str(path)) else f"{path}: {exc}"
+            self.options.warn("unreadable_file", f"{text}; the rest of this file is "
+                              "skipped, the other files go on")
+
     def __iter__(self) -> Iterator[tuple[str, Message]]:
         its = [self._records()]
         for f in self.imu_files:
-            its.append(iter(ImuCsvReader(f, self.options)))
+            its.append(self._contained(f, lambda f=f: ImuCsvReader(f, self.options)))
         if self.truth_file is not None:
-            its.append(self._truth())
-        yield from heapq.merge(*its, key=lambda pm: pm[1].t)
+            its.append(self._contained(self.truth_file, self._truth))
+        rules = TimelineConfig()  # one device's clock jump must not reorder the others
+        yield from merge_in_time(its, time_of=lambda pm: pm[1].t, max_lead=rules.max_lead,
+                                 jump_back=rules.clock_jump)
 
 
 READERS = {".jsonl": SimStreamsReader}

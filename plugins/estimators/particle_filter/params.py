@@ -96,7 +96,7 @@ class MapError(Params):
 
 
 class ParticleFilterParams(Params):
-    particles: int = param(500, gt=0, description="particles per firefighter (N_p, §V-B)")
+    particles: int = param(500, gt=0, le=100_000, description="particles per firefighter (N_p, §V-B)")
     start: Start = param(DEFAULT_START, description=(
         "the initial cloud: mode 'unknown' = spread over the free space, all headings "
         "(§V-C); 'pose' = around the start pose (all headings without one); 'entrance' = "

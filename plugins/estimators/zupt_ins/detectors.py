@@ -25,9 +25,20 @@ Why: the statistic of a resting foot rises by orders of magnitude with speed (ab
 threshold is wrong for some gait, while at every speed a stance is the deepest dip
 between two swings. ``Bf`` is shorter than a stride so that the floor follows a change
 of gait within one stride; the prominence test keeps a foot that slides without
-clear stances (crawling, shuffling) to the surely-still level ``low``.
+clear stances (shuffling) to the surely-still level ``low``.
 
-Every detector finally drops zero-velocity runs shorter than ``min_stance`` samples:
+Crawling (on hands and knees, or knee-walking) is a gait of its own: the boot rests on
+its toe cap or upside down, rocks about the contact while the knee moves, and its
+swings are slow, so the statistic of its stances sits far above a walking stance's and
+that of its swings far below a walking swing's. The detector recognises it by the
+attitude of the resting foot: when the mean specific force of the floor sample's window
+is gravity (within ``REST_GRAVITY``) and points more than the crawl tilt away from the
+IMU z axis (``up < crawl_up``), the threshold of that sample uses the crawl levels
+``crawl_low``, ``crawl_high``, ``crawl_kappa`` and ``crawl_prominence`` instead. The
+mode of each sample is handed on with its statistic.
+
+Every detector finally drops zero-velocity runs shorter than ``min_stance`` samples
+(``crawl_min_stance`` for a sample in crawl mode):
 mid-swing, when the foot's rotation reverses, the statistic can dip for a few
 milliseconds at full walking speed; a real stance lasts longer even when running.
 
@@ -49,13 +60,18 @@ from numba import njit
 SHOE, ARED, AMVD, ADAPTIVE = 0, 1, 2, 3
 DETECTOR_KINDS = {"shoe": SHOE, "ared": ARED, "amvd": AMVD, "adaptive": ADAPTIVE}
 
-# ring columns: t, acc xyz, gyro xyz, log10 T, raw decision, threshold
-R_T, R_ACC, R_GYRO, R_STAT, R_RAW, R_THR = 0, 1, 4, 7, 8, 9
-N_RING = 10
+# ring columns: t, acc xyz, gyro xyz, log10 T, raw decision, threshold, up, gait mode
+R_T, R_ACC, R_GYRO, R_STAT, R_RAW, R_THR, R_UP, R_MODE = 0, 1, 4, 7, 8, 9, 10, 11
+N_RING = 12
+#: gait modes of the adaptive detector (``BlockResult.stat`` column 2)
+MODE_UPRIGHT, MODE_CRAWL = 0, 1
 # counters: samples in / out, then head and tail of the max and min deques
 D_N_IN, D_N_OUT, D_MAX_H, D_MAX_T, D_MIN_H, D_MIN_T = range(6)
 N_DSTATE = 6
 _TINY = 1e-300
+#: A window whose mean specific force is within this fraction of gravity tells the
+#: attitude of the foot (crawl mode); the mean of a moving foot's window does not.
+REST_GRAVITY = 0.1
 
 
 class DetectorConfig(NamedTuple):
@@ -75,17 +91,29 @@ class DetectorConfig(NamedTuple):
     back: int               # adaptive: B, look-back of the swing level [samples]
     floor_back: int         # adaptive: Bf, look-back of the stance floor [samples]
     min_stance: int         # shortest zero-velocity run kept [samples]
+    crawl_up: float         # adaptive: cos of the resting-foot tilt beyond which it crawls
+    crawl_low: float        # adaptive, crawling: low, high, kappa, prominence as above
+    crawl_high: float
+    crawl_kappa: float
+    crawl_prominence: float
+    crawl_min_stance: int   # shortest zero-velocity run kept while crawling [samples]
 
 
 def lookahead(cfg: DetectorConfig) -> int:
     """Samples by which the final decision lags the newest input."""
     raw = cfg.window // 2 + (cfg.ahead if cfg.kind == ADAPTIVE else 0)
-    return raw + max(cfg.min_stance, 1) - 1
+    return raw + _longest_run(cfg) - 1
 
 
 def capacity(cfg: DetectorConfig) -> int:
     """Ring size holding every sample a decision needs."""
-    return lookahead(cfg) + max(cfg.back, cfg.floor_back) + 2 * max(cfg.min_stance, 1) + 2
+    return lookahead(cfg) + max(cfg.back, cfg.floor_back) + 2 * _longest_run(cfg) + 2
+
+
+@njit(cache=True)
+def _longest_run(cfg: DetectorConfig) -> int:
+    """The longest zero-velocity run a decision waits for [samples, >= 1]."""
+    return max(cfg.min_stance, cfg.crawl_min_stance if cfg.kind == ADAPTIVE else 0, 1)
 
 
 def new_state(cfg: DetectorConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -119,21 +147,24 @@ def _push(ring: np.ndarray, ist: np.ndarray, dq: np.ndarray, j: int) -> None:
 
 @njit(cache=True)
 def _window_extremes(ring: np.ndarray, ist: np.ndarray, dq: np.ndarray, d: int,
-                     cfg: DetectorConfig) -> tuple[float, float]:
-    """(max over d-B.., min over d-Bf..) of the statistics pushed so far."""
+                     cfg: DetectorConfig) -> tuple[float, int]:
+    """(max over d-B.., index of the min over d-Bf..) of the statistics pushed so far
+    (the newest sample of equal minima)."""
     m = ring.shape[0]
     cap = dq.shape[1]
     while dq[0, ist[D_MAX_H] % cap] < d - cfg.back:
         ist[D_MAX_H] += 1
     while dq[1, ist[D_MIN_H] % cap] < d - cfg.floor_back:
         ist[D_MIN_H] += 1
-    return (ring[dq[0, ist[D_MAX_H] % cap] % m, R_STAT],
-            ring[dq[1, ist[D_MIN_H] % cap] % m, R_STAT])
+    return ring[dq[0, ist[D_MAX_H] % cap] % m, R_STAT], dq[1, ist[D_MIN_H] % cap]
 
 
 @njit(cache=True)
-def _statistic(ring: np.ndarray, lo: int, hi: int, cfg: DetectorConfig) -> float:
-    """log10 T over the samples lo..hi (absolute indices, inclusive)."""
+def _statistic(ring: np.ndarray, lo: int, hi: int, cfg: DetectorConfig) -> tuple[float, float]:
+    """(log10 T, up) over the samples lo..hi (absolute indices, inclusive); ``up`` is the
+    z component of the mean specific force's direction (1 when the IMU z axis points up,
+    the foot level), or 1 when the mean is not gravity (a moving foot's window says
+    nothing about its attitude)."""
     m = ring.shape[0]
     w = hi - lo + 1
     sa0 = sa1 = sa2 = 0.0
@@ -143,6 +174,8 @@ def _statistic(ring: np.ndarray, lo: int, hi: int, cfg: DetectorConfig) -> float
         sa1 += ring[r, R_ACC + 1]
         sa2 += ring[r, R_ACC + 2]
     ma0, ma1, ma2 = sa0 / w, sa1 / w, sa2 / w
+    nrm = math.sqrt(ma0 * ma0 + ma1 * ma1 + ma2 * ma2)
+    up = ma2 / nrm if abs(nrm - cfg.gravity) < REST_GRAVITY * cfg.gravity else 1.0
     ta = 0.0
     tw = 0.0
     if cfg.kind == AMVD:
@@ -158,7 +191,6 @@ def _statistic(ring: np.ndarray, lo: int, hi: int, cfg: DetectorConfig) -> float
             tw += g0 * g0 + g1 * g1 + g2 * g2
         tot = tw / (cfg.sigma_g * cfg.sigma_g)
     else:
-        nrm = math.sqrt(ma0 * ma0 + ma1 * ma1 + ma2 * ma2)
         u0 = u1 = u2 = 0.0
         if nrm > 0.0:
             u0, u1, u2 = cfg.gravity * ma0 / nrm, cfg.gravity * ma1 / nrm, cfg.gravity * ma2 / nrm
@@ -169,7 +201,7 @@ def _statistic(ring: np.ndarray, lo: int, hi: int, cfg: DetectorConfig) -> float
             ta += d0 * d0 + d1 * d1 + d2 * d2
             tw += g0 * g0 + g1 * g1 + g2 * g2
         tot = ta / (cfg.sigma_a * cfg.sigma_a) + tw / (cfg.sigma_g * cfg.sigma_g)
-    return math.log10(max(tot / w, _TINY))
+    return math.log10(max(tot / w, _TINY)), up
 
 
 @njit(cache=True)
@@ -179,26 +211,36 @@ def _raw_decision(ring: np.ndarray, ist: np.ndarray, dq: np.ndarray, d: int,
     m = ring.shape[0]
     r = d % m
     s = ring[r, R_STAT]
+    mode = MODE_UPRIGHT
     if cfg.kind != ADAPTIVE:
         thr = math.log10(cfg.threshold)
     else:
-        swing, floor = _window_extremes(ring, ist, dq, d, cfg)
-        low = math.log10(cfg.low)
-        if swing - floor < cfg.prominence:
+        swing, j = _window_extremes(ring, ist, dq, d, cfg)
+        floor = ring[j % m, R_STAT]
+        if ring[j % m, R_UP] < cfg.crawl_up:
+            mode = MODE_CRAWL
+            low, high = math.log10(cfg.crawl_low), math.log10(cfg.crawl_high)
+            kappa, prominence = cfg.crawl_kappa, cfg.crawl_prominence
+        else:
+            low, high = math.log10(cfg.low), math.log10(cfg.high)
+            kappa, prominence = cfg.kappa, cfg.prominence
+        if swing - floor < prominence:
             thr = low
         else:
-            thr = max(low, min(floor + cfg.kappa * (swing - floor), math.log10(cfg.high)))
+            thr = max(low, min(floor + kappa * (swing - floor), high))
     ring[r, R_THR] = thr
+    ring[r, R_MODE] = mode
     ring[r, R_RAW] = 1.0 if s < thr else 0.0
 
 
 @njit(cache=True)
 def _final_decision(ring: np.ndarray, e: int, last: int, cfg: DetectorConfig) -> bool:
-    """Raw decision of sample e, dropped when its run is shorter than ``min_stance``."""
+    """Raw decision of sample e, dropped when its run is shorter than its mode's
+    ``min_stance``."""
     m = ring.shape[0]
     if ring[e % m, R_RAW] == 0.0:
         return False
-    need = max(cfg.min_stance, 1)
+    need = max(cfg.crawl_min_stance if ring[e % m, R_MODE] == MODE_CRAWL else cfg.min_stance, 1)
     run = 1
     j = e - 1
     while run < need and j >= 0 and ring[j % m, R_RAW] != 0.0:
@@ -222,6 +264,7 @@ def _emit(ring: np.ndarray, e: int, zv: bool, k: int, out_t: np.ndarray, out_acc
     out_zv[k] = zv
     out_stat[k, 0] = ring[r, R_STAT]
     out_stat[k, 1] = ring[r, R_THR]
+    out_stat[k, 2] = ring[r, R_MODE]
 
 
 @njit(cache=True, nogil=True)  # releases the GIL: firefighters run on worker threads
@@ -230,13 +273,13 @@ def detect(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, ring: np.ndarray,
            out_gyro: np.ndarray, out_zv: np.ndarray, out_stat: np.ndarray) -> int:
     """Feed samples; write the samples whose decision is final (oldest first); return how many.
 
-    Output arrays need room for ``len(t)`` rows; ``out_stat`` (n, 2) receives log10 T of
-    each sample and the log10 threshold it was compared with.
+    Output arrays need room for ``len(t)`` rows; ``out_stat`` (n, 3) receives log10 T of
+    each sample, the log10 threshold it was compared with and the gait mode (``MODE_*``).
     """
     m = ring.shape[0]
     h = cfg.window // 2
     raw_lag = h + (cfg.ahead if cfg.kind == ADAPTIVE else 0)
-    run_lag = max(cfg.min_stance, 1) - 1
+    run_lag = _longest_run(cfg) - 1
     k = 0
     for i in range(t.shape[0]):
         n = ist[D_N_IN]
@@ -248,7 +291,7 @@ def detect(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, ring: np.ndarray,
         ist[D_N_IN] = n + 1
         c = n - h
         if c >= 0:
-            ring[c % m, R_STAT] = _statistic(ring, max(0, c - h), n, cfg)
+            ring[c % m, R_STAT], ring[c % m, R_UP] = _statistic(ring, max(0, c - h), n, cfg)
             if cfg.kind == ADAPTIVE:
                 _push(ring, ist, dq, c)
         d = c - (raw_lag - h)
@@ -275,7 +318,7 @@ def flush(ring: np.ndarray, ist: np.ndarray, dq: np.ndarray, cfg: DetectorConfig
     n = ist[D_N_IN]
     last = n - 1
     for c in range(max(0, n - h), n):
-        ring[c % m, R_STAT] = _statistic(ring, max(0, c - h), last, cfg)
+        ring[c % m, R_STAT], ring[c % m, R_UP] = _statistic(ring, max(0, c - h), last, cfg)
         if cfg.kind == ADAPTIVE:
             _push(ring, ist, dq, c)
     for d in range(max(0, n - raw_lag), n):

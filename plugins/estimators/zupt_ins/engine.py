@@ -20,8 +20,8 @@ class BlockResult:
     """What one call produced.
 
     ``states`` (N, eskf.N_OUT): full-rate filter output of the samples processed in this
-    call (columns ``eskf.O_*``); ``stat`` (N, 2) log10 of the detector statistic and of the
-    threshold it was compared with;
+    call (columns ``eskf.O_*``); ``stat`` (N, 3) log10 of the detector statistic, of the
+    threshold it was compared with, and the detector's gait mode (``detectors.MODE_*``);
     ``events`` (M, eskf.N_EVENT): step/still events (columns ``eskf.E_*``).
     """
 
@@ -31,7 +31,7 @@ class BlockResult:
 
     @staticmethod
     def empty() -> "BlockResult":
-        return BlockResult(np.zeros((0, eskf.N_OUT)), np.zeros((0, 2)), np.zeros((0, eskf.N_EVENT)))
+        return BlockResult(np.zeros((0, eskf.N_OUT)), np.zeros((0, 3)), np.zeros((0, eskf.N_EVENT)))
 
     @staticmethod
     def concat(parts: list["BlockResult"]) -> "BlockResult":
@@ -64,19 +64,6 @@ class InsEngine:
     def alignment_samples(self) -> int:
         """Still samples the alignment averaged (fewer than configured after a fallback)."""
         return int(self._filt[2][eskf.I_ALIGN_N])
-
-    @property
-    def alignment_yaw_rate(self) -> float:
-        """Mean angular rate [rad/s] about the vertical (the mean specific force's
-        direction) over the still samples of the alignment: the gyro bias that turns the
-        heading when it is not calibrated out."""
-        fs = self._filt[3]
-        up = fs[eskf.F_ALIGN_ACC:eskf.F_ALIGN_ACC + 3]
-        norm = float(np.linalg.norm(up))
-        if norm == 0.0:
-            return 0.0
-        return float(fs[eskf.F_ALIGN_GYRO:eskf.F_ALIGN_GYRO + 3] @ up) / norm / max(
-            self.alignment_samples, 1)
 
     @property
     def gaps(self) -> int:
@@ -116,10 +103,15 @@ class InsEngine:
         return self._filter(buf, k)
 
     def finish(self) -> BlockResult:
-        """Process the samples still waiting for the detector's look-ahead."""
+        """Process the samples still waiting for the detector's look-ahead, and a step
+        still waiting to settle in its stance."""
         buf = _buffers(detectors.lookahead(self.detector) + 1)
         k = detectors.flush(*self._det, self.detector, *buf)
-        return self._filter(buf, k)
+        res = self._filter(buf, k)
+        last = np.empty((1, eskf.N_EVENT))
+        if eskf.finish_filter(*self._filt, self.filter, last):
+            res.events = np.concatenate((res.events, last))
+        return res
 
     def _filter(self, buf: tuple, k: int) -> BlockResult:
         t, acc, gyro, zv, stat = (b[:k] for b in buf)
@@ -130,4 +122,4 @@ class InsEngine:
 
 
 def _buffers(n: int) -> tuple[np.ndarray, ...]:
-    return (np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.bool_), np.empty((n, 2)))
+    return (np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.bool_), np.empty((n, 3)))

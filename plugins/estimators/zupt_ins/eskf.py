@@ -17,6 +17,12 @@ Transition (orca-map-matching eq. 1-2, with bias columns): ``F = I + dt*A`` with
 noise from noise densities, ``Q = sigma^2 * dt`` per axis (isotropic, so independent of
 R). Zero-velocity pseudo-measurement ``0 = v + n``, ``n ~ N(0, sigma_zupt^2 I)``.
 
+Events: a step event ``step_settle`` into each stance (at the stance's last sample when
+it is shorter), when the stance's zero-velocity updates have settled its position, with
+the position correction of the onset (``E_CORR``, for the retrospective correction of
+the swing); a still event every ``still_period`` while the foot rests. At each stance
+onset the level-floor update (:func:`_level_floor`) may pull the height to the floor's.
+
 The filter state lives in arrays that the caller keeps between blocks, so processing a
 recording block by block gives bit-identical results to processing it whole.
 """
@@ -39,16 +45,19 @@ N_NO_BIAS = 13
 
 # istate (int64) fields
 (I_ALIGNED, I_ALIGN_N, I_IN_STANCE, I_SWING_N, I_STANCE_N, I_N, I_GAPS, I_HAS_T, I_EVENTS,
- I_ZARU_REJECTED) = range(10)
-N_ISTATE = 10
+ I_ZARU_REJECTED, I_FLOOR, I_STAIRS, I_PENDING) = range(13)
+N_ISTATE = 13
 # fstate (float64) fields
-F_T_PREV, F_T_EVENT, F_EV_X, F_EV_Y, F_EV_Z, F_EV_YAW, F_STANCE_Z = range(7)
-F_ALIGN_ACC, F_ALIGN_GYRO = 7, 10          # 3 sums each
-F_T_STILL = 13                              # time of the last event within the current stance
-F_CORR = 14                                 # 3: position correction of the current sample
-F_STANCE_T0 = 17                            # time the current stance began
-F_QUIET = 18                                # 8: running mean and mean square of |f|, gyro xyz
-N_FSTATE = 26
+F_T_PREV, F_T_EVENT = 0, 1
+F_STANCE_X, F_STANCE_Y, F_STANCE_Z = 2, 3, 4  # position at the last stance onset
+F_ALIGN_ACC, F_ALIGN_GYRO = 5, 8            # 3 sums each
+F_T_STILL = 11                              # time of the last event within the current stance
+F_CORR = 12                                 # 3: position correction of the current sample
+F_STANCE_T0 = 15                            # time the current stance began
+F_QUIET = 16                                # 8: running mean and mean square of |f|, gyro xyz
+F_FLOOR_Z = 24                              # height of the current level floor (I_FLOOR set)
+F_ONSET_CORR = 25                           # 3: position correction at the stance onset
+N_FSTATE = 28
 
 #: The still start for a gyro-bias alignment is judged by how little the signals vary,
 #: not by the ZUPT detector, whose statistic contains the very bias being measured (an
@@ -92,10 +101,12 @@ class FilterConfig(NamedTuple):
     align_samples: int             # still samples averaged for the coarse alignment
     align_min_samples: int         # a still period this long that ends sooner is used instead
     align_gyro_bias: bool          # take the mean gyro over the alignment as initial bias
-    height_correction: bool        # zupt-extension: level-floor height pseudo-measurement
+    height_correction: bool        # hold level stance sequences at their floor's height
     level_threshold: float         # [m] |dz| between stances below which the floor is level
     level_sigma: float             # [m] sigma of the level-floor height measurement
+    stair_run: float               # [m] horizontal step length no stair step reaches
     still_period: float            # [s] event period while standing still
+    step_settle: float             # [s] a step event waits this long into its stance
     max_dt: float                  # [s] longer sample intervals are capped (and counted)
 
 
@@ -224,8 +235,9 @@ def _clone(P: np.ndarray, n: int) -> None:
 
 @njit(cache=True)
 def _write_event(ev: np.ndarray, x: np.ndarray, P: np.ndarray, fs: np.ndarray, t: float,
-                 kind: int, swing_n: int) -> None:
-    """Fill one event row: pose, the increment covariance (clone) and the absolute one."""
+                 kind: int, swing_n: int, corr: int) -> None:
+    """Fill one event row: pose, the increment covariance (clone) and the absolute one;
+    the position correction is the 3 values of ``fs`` at ``corr``."""
     ev[E_T] = t
     ev[E_T_PREV] = fs[F_T_EVENT]
     ev[E_POS:E_POS + 3] = x[0:3]
@@ -234,7 +246,7 @@ def _write_event(ev: np.ndarray, x: np.ndarray, P: np.ndarray, fs: np.ndarray, t
     ev[E_TILT] = tilt_of(q)
     ev[E_KIND] = kind
     ev[E_SWING_N] = swing_n
-    ev[E_CORR:E_CORR + 3] = fs[F_CORR:F_CORR + 3]
+    ev[E_CORR:E_CORR + 3] = fs[corr:corr + 3]
     ev[E_STANCE_T0] = fs[F_STANCE_T0]
     cur = (0, 1, 2, 8)
     cl = (9, 10, 11, 12)
@@ -319,9 +331,87 @@ def _align(x: np.ndarray, P: np.ndarray, ist: np.ndarray, fs: np.ndarray, cfg: F
             P[16 + i, 16 + i] = cfg.init_gyro_bias_sigma * cfg.init_gyro_bias_sigma
     _clone(P, NE)
     ist[I_ALIGNED] = 1
-    fs[F_EV_X] = fs[F_EV_Y] = fs[F_EV_Z] = 0.0
-    fs[F_EV_YAW] = yaw_of(x[6:10])
-    fs[F_STANCE_Z] = 0.0
+    fs[F_STANCE_X] = fs[F_STANCE_Y] = fs[F_STANCE_Z] = 0.0
+    ist[I_FLOOR] = ist[I_STAIRS] = 0
+
+
+@njit(cache=True)
+def _emit_step(events: np.ndarray, n_ev: int, x: np.ndarray, P: np.ndarray, n: int,
+               ist: np.ndarray, fs: np.ndarray, t: float) -> int:
+    """Write the pending step event at ``t`` (a still sample of its stance) and restart
+    the step clone there; returns the new event count."""
+    _write_event(events[n_ev], x, P, fs, t, EVENT_STEP, ist[I_SWING_N], F_ONSET_CORR)
+    fs[F_T_EVENT] = t
+    fs[F_T_STILL] = t
+    _clone(P, n)
+    ist[I_PENDING] = 0
+    return n_ev + 1
+
+
+@njit(cache=True)
+def finish_filter(x: np.ndarray, P: np.ndarray, ist: np.ndarray, fs: np.ndarray,
+                  cfg: FilterConfig, events: np.ndarray) -> int:
+    """At the end of the recording: write a step still waiting for step_settle (the
+    recording ended in its stance); returns the number of events written (0 or 1)."""
+    if ist[I_PENDING] == 0:
+        return 0
+    n = NE if cfg.bias_states else N_NO_BIAS
+    n_ev = _emit_step(events, 0, x, P, n, ist, fs, fs[F_T_PREV])
+    ist[I_EVENTS] += n_ev
+    return n_ev
+
+
+@njit(cache=True)
+def _level_floor(x: np.ndarray, P: np.ndarray, n: int, ist: np.ndarray, fs: np.ndarray,
+                 cfg: FilterConfig) -> None:
+    """Hold the height of a level stance sequence at its floor's (the stance onset).
+
+    A step is a *stair step* when it is short (horizontally less than ``stair_run`` from
+    the previous stance: one foot's stride on stairs spans two treads) and its height
+    changed by ``level_threshold`` or more; every other step is *level* (a long step is a
+    walking or running stride on a floor, where the height change is the INS's error).
+    Stairs come in flights: a second stair step in the same direction ends the level
+    sequence, and the next level step starts a new one at its own height; a single stair
+    step followed by a level one is taken for an error. The first step of a level
+    sequence fixes the floor's height, and every later one is pulled to it by a
+    height-only update: gain ``k = P / (P + sigma^2)`` on z alone, so no other state
+    changes (the horizontal track is the same with it or without), with
+    ``P = max(P_zz, d^2)`` for a departure ``d`` from the floor (a filter that has drifted
+    further than its covariance says is not believed over the floor), and the covariance
+    in Joseph form for that gain (z row and column scaled by ``1 - k``,
+    ``P_zz = (1 - k)^2 P + k^2 sigma^2``). A drift of a level threshold away from the
+    floor in short level steps (a ramp) starts a new floor there.
+
+    zupt-extension ("Height"): a stance slightly above or below the height at the last
+    ZUPT is corrected to it; here the reference is the floor of the whole level sequence
+    (the height cannot wander step by step) and the update reaches no other state (a
+    wrong height cannot tilt the attitude, and the horizontal track with it).
+    """
+    long_step = math.hypot(x[0] - fs[F_STANCE_X], x[1] - fs[F_STANCE_Y]) >= cfg.stair_run
+    rise = x[2] - fs[F_STANCE_Z]
+    if not long_step and abs(rise) >= cfg.level_threshold:
+        way = 1 if rise > 0 else -1
+        ist[I_STAIRS] = ist[I_STAIRS] + way if ist[I_STAIRS] * way > 0 else way
+        if abs(ist[I_STAIRS]) >= 2:
+            ist[I_FLOOR] = 0
+        return
+    single = ist[I_STAIRS] != 0
+    ist[I_STAIRS] = 0
+    d = fs[F_FLOOR_Z] - x[2]
+    if ist[I_FLOOR] == 0 or (not long_step and not single and abs(d) >= cfg.level_threshold):
+        ist[I_FLOOR] = 1
+        fs[F_FLOOR_Z] = x[2]
+        return
+    var = cfg.level_sigma * cfg.level_sigma
+    pzz = max(P[2, 2], d * d)
+    k = pzz / (pzz + var)
+    x[2] += k * d
+    fs[F_CORR + 2] += k * d
+    for j in range(n):
+        if j != 2:
+            P[2, j] *= 1.0 - k
+            P[j, 2] = P[2, j]
+    P[2, 2] = (1.0 - k) * (1.0 - k) * pzz + k * k * var
 
 
 @njit(cache=True, nogil=True)  # releases the GIL: firefighters run on worker threads
@@ -339,9 +429,7 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
     z3 = np.zeros(3)
     vrows = np.array([3, 4, 5])
     bgrows = np.array([16, 17, 18])
-    zrow = np.array([2])
     wres = np.zeros(3)
-    res1 = np.zeros(1)
     for k in range(t.shape[0]):
         tk = t[k]
         still = zv[k]
@@ -353,6 +441,10 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
             if dt > cfg.max_dt:
                 dt = cfg.max_dt
                 ist[I_GAPS] += 1
+        if ist[I_PENDING] == 1 and not still:
+            # the stance ended before step_settle: its step is the last still sample's
+            # state (x, P have not moved on yet)
+            n_ev = _emit_step(events, n_ev, x, P, n, ist, fs, fs[F_T_PREV])
         fs[F_T_PREV] = tk
         ist[I_N] += 1
         fs[F_CORR:F_CORR + 3] = z3
@@ -401,22 +493,19 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
         if still:
             _update(x, P, n, vrows, -x[3:6], cfg.zupt_sigma * cfg.zupt_sigma, fs[F_CORR:F_CORR + 3])
             if ist[I_IN_STANCE] == 0:
-                # stance onset: one step completed
-                if cfg.height_correction and abs(x[2] - fs[F_STANCE_Z]) < cfg.level_threshold:
-                    res1[0] = fs[F_STANCE_Z] - x[2]
-                    _update(x, P, n, zrow, res1, cfg.level_sigma * cfg.level_sigma,
-                            fs[F_CORR:F_CORR + 3])
+                # stance onset: one step completed; its event waits for step_settle
+                if cfg.height_correction:
+                    _level_floor(x, P, n, ist, fs, cfg)
+                fs[F_STANCE_X] = x[0]
+                fs[F_STANCE_Y] = x[1]
                 fs[F_STANCE_Z] = x[2]
                 fs[F_STANCE_T0] = tk
-                _write_event(events[n_ev], x, P, fs, tk, EVENT_STEP, ist[I_SWING_N])
-                n_ev += 1
-                fs[F_T_EVENT] = tk
-                fs[F_T_STILL] = tk
-                _clone(P, n)
+                fs[F_ONSET_CORR:F_ONSET_CORR + 3] = fs[F_CORR:F_CORR + 3]
+                ist[I_PENDING] = 1
                 ist[I_IN_STANCE] = 1
                 ist[I_STANCE_N] = 0
-            elif tk - fs[F_T_STILL] >= cfg.still_period:
-                _write_event(events[n_ev], x, P, fs, tk, EVENT_STILL, 0)
+            elif ist[I_PENDING] == 0 and tk - fs[F_T_STILL] >= cfg.still_period:
+                _write_event(events[n_ev], x, P, fs, tk, EVENT_STILL, 0, F_CORR)
                 n_ev += 1
                 fs[F_T_EVENT] = tk
                 fs[F_T_STILL] = tk
@@ -430,6 +519,8 @@ def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                     _update(x, P, n, bgrows, wres, var, fs[F_CORR:F_CORR + 3])
                 else:
                     ist[I_ZARU_REJECTED] += 1
+            if ist[I_PENDING] == 1 and tk - fs[F_STANCE_T0] >= cfg.step_settle:
+                n_ev = _emit_step(events, n_ev, x, P, n, ist, fs, tk)
             ist[I_STANCE_N] += 1
         else:
             if ist[I_IN_STANCE] == 1:

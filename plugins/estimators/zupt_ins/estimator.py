@@ -43,9 +43,17 @@ MAX_SWING = 10.0
 YAW_REPORT_STEP = math.radians(5.0)
 #: A recurring input problem of one device is reported at most once per this much data time [s].
 REPORT_INTERVAL = 10.0
-#: A still start whose mean yaw rate [rad/s] exceeds this, with alignment.gyro_bias off, gets
-#: a warning: ten times an industrial MEMS gyro's bias instability, 6 deg a minute of heading.
+#: A heading that turns faster than this [rad/s] while the foot lies still gets the
+#: ``ins_gyro_uncalibrated`` warning: ten times an industrial MEMS gyro's bias
+#: instability, 6 deg a minute of heading.
 UNCALIBRATED_YAW_RATE = math.radians(0.1)
+#: Still periods at least this long [s] show the gyro bias (shorter ones are stances of a
+#: walk, whose foot may still pivot) ...
+BIAS_STILL_PERIOD = 1.0
+#: ... and the warning needs this much still time in them [s], and this share of the
+#: periods turning the same way (a bias always turns one way; pivoting feet both ways).
+BIAS_EVIDENCE = 5.0
+BIAS_SAME_SIGN = 0.75
 
 
 @dataclass
@@ -63,6 +71,9 @@ class _Device:
     tail: np.ndarray = field(default_factory=lambda: np.zeros((0, eskf.N_OUT)))
     state_slot: float = -math.inf
     yaw_reported: float | None = None
+    still: tuple[float, float] | None = None      # (t, yaw) where the current still run began
+    still_runs: list[tuple[float, float]] = field(default_factory=list)  # (duration, dyaw)
+    bias_judged: bool = False
 
     @property
     def n_pending(self) -> int:
@@ -196,6 +207,8 @@ class ZuptInsEstimator(Estimator):
         for ev in res.events:
             step = dev.steps.step(ev)
             self._publish_step(agent, dev, step)
+        if not dev.bias_judged:
+            self._judge_gyro_bias(agent, dev, res.states)
         if self.params.outputs.state_rate > 0:
             self._publish_states(agent, dev, res, final)
 
@@ -213,18 +226,50 @@ class ZuptInsEstimator(Estimator):
             + (f" on a still period of {used * align.duration:.2f} s, shorter "
                f"than alignment.duration {align.duration:g} s"
                if short else "") + "; navigation started", agent=agent)
-        yaw_rate = abs(dev.engine.alignment_yaw_rate)
-        # the mean of white noise over the still time must not pass for a bias
-        noise = self.params.imu.gyro_noise_density / math.sqrt(used * align.duration)
-        if not align.gyro_bias and yaw_rate > max(UNCALIBRATED_YAW_RATE, 5 * noise):
-            self.ctx.count("uncalibrated_gyro_starts")
-            dps = math.degrees(yaw_rate)
-            self.ctx.diagnose(
-                t, "warning", "ins_gyro_uncalibrated",
-                f"{dev.device}: the foot was still at the start but its gyro read "
-                f"{dps:.2f} deg/s about the vertical; left in, that turns the track by "
-                f"about {dps * 60:.0f} deg a minute. Set alignment.gyro_bias: true if the "
-                "wearer stands still at the start", agent=agent)
+
+    def _judge_gyro_bias(self, agent: str, dev: _Device, states: np.ndarray) -> None:
+        """Warn once when the heading turns while the foot lies still.
+
+        Without bias states (and ZARU) nothing corrects the heading at rest, so the yaw
+        change over a still period is the gyro bias about the vertical. Periods of at
+        least ``BIAS_STILL_PERIOD`` count; after ``BIAS_EVIDENCE`` s of them the bias is
+        judged: a warning if their mean turn rate exceeds ``UNCALIBRATED_YAW_RATE`` and
+        most of them turn the same way, else it is left alone for good.
+        """
+        rows = states[states[:, eskf.O_ALIGNED] > 0]
+        if not len(rows):
+            return
+        still = rows[:, eskf.O_ZV] > 0
+        t, yaw = rows[:, eskf.O_T], rows[:, eskf.O_YAW]
+        edges = np.flatnonzero(np.diff(still.astype(np.int8))) + 1
+        for a, b in zip(np.concatenate(([0], edges)), np.concatenate((edges, [len(rows)]))):
+            if still[a]:
+                if dev.still is None:
+                    dev.still = (float(t[a]), float(yaw[a]))
+                if b == len(rows):
+                    continue            # the run goes on in the next block
+                t0, yaw0 = dev.still
+                if t[b - 1] - t0 >= BIAS_STILL_PERIOD:
+                    dev.still_runs.append((float(t[b - 1] - t0), wrap_angle(float(yaw[b - 1]) - yaw0)))
+            dev.still = None
+        total = sum(d for d, _ in dev.still_runs)
+        if total < BIAS_EVIDENCE:
+            return
+        dev.bias_judged = True
+        rate = sum(dy for _, dy in dev.still_runs) / total
+        same = sum(1 for _, dy in dev.still_runs if dy * rate > 0) / len(dev.still_runs)
+        if abs(rate) <= UNCALIBRATED_YAW_RATE or same < BIAS_SAME_SIGN or self.params.zaru.enabled:
+            return
+        self.ctx.count("uncalibrated_gyro")
+        dps = math.degrees(abs(rate))
+        self.ctx.diagnose(
+            float(t[-1]), "warning", "ins_gyro_uncalibrated",
+            f"{dev.device}: while the foot lay still ({total:.0f} s in "
+            f"{len(dev.still_runs)} still periods) the heading turned by {dps:.2f} deg/s, "
+            f"the same way in {100 * same:.0f} % of them: an uncalibrated gyro, which turns "
+            f"the track by about {dps * 60:.0f} deg a minute. Give the sensor the device's "
+            "calibration (foot_imu `calibration`), or estimate the bias at rest (zupt_ins "
+            "`filter: {bias_states: true}, zaru: {enabled: true}`)", agent=agent)
 
     def placement(self, agent: str) -> _Placement:
         """Where ``agent``'s INS frame lies in the output frame (``start``)."""
@@ -263,11 +308,11 @@ class ZuptInsEstimator(Estimator):
         rows = np.concatenate((dev.tail, res.states)) if len(dev.tail) else res.states
         if self.params.outputs.retrospective_correction and len(rows):
             rows = rows.copy()
+            t = rows[:, eskf.O_T]
             rows[:, eskf.O_POS:eskf.O_POS + 3] = correct_positions(
-                rows[:, eskf.O_T], rows[:, eskf.O_POS:eskf.O_POS + 3], res.events)
-            zv = np.flatnonzero(rows[:, eskf.O_ZV] > 0)
-            done = len(rows) if final else (zv[-1] + 1 if len(zv) else 0)
-            done = max(done, int(np.searchsorted(rows[:, eskf.O_T], rows[-1, eskf.O_T] - MAX_SWING)))
+                t, rows[:, eskf.O_POS:eskf.O_POS + 3], res.events)
+            done = len(rows) if final else _settled(t, rows[:, eskf.O_ZV] > 0, res.events)
+            done = max(done, int(np.searchsorted(t, t[-1] - MAX_SWING)))
         else:
             done = len(rows)
         out, dev.tail = rows[:done], rows[done:]
@@ -290,3 +335,15 @@ class ZuptInsEstimator(Estimator):
                                                    heading=heading, cov=cov,
                                                    frame=placed.frame))
 
+
+
+def _settled(t: np.ndarray, still: np.ndarray, events: np.ndarray) -> int:
+    """Rows of the full-rate output that no later event changes: up to the end of the
+    still run holding the newest event (a swing waits for the step that ends it)."""
+    if not len(events):
+        return 0
+    i = int(np.searchsorted(t, events[:, eskf.E_T].max()))
+    if i >= len(t):
+        return len(t)
+    after = np.flatnonzero(~still[i:])
+    return i + int(after[0]) if len(after) else len(t)

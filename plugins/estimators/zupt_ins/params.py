@@ -38,6 +38,28 @@ def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
     return g0 - 3.086e-6 * height_m
 
 
+class CrawlLevels(Params):
+    """The adaptive detector's levels while the resting foot lies tilted beyond
+    ``gait.crawl_tilt`` (crawling, knee-walking: see ``detectors``)."""
+
+    low: float = param(5.5, unit="log10 T", description="SHOE statistic below which the "
+                       "foot is surely still")
+    high: float = param(6.6, unit="log10 T", description="SHOE statistic above which the "
+                        "foot surely moves")
+    kappa: float = param(0.2, gt=0, lt=1, description="threshold position between stance "
+                         "floor and swing level (log scale)")
+    prominence: float = param(1.0, gt=0, unit="decades", description="swing level above "
+                              "stance floor needed to call it a gait")
+    min_stance: float = param(0.025, unit="s", ge=0, description="zero-velocity runs "
+                              "shorter than this are dropped")
+
+    @model_validator(mode="after")
+    def _levels(self) -> "CrawlLevels":
+        if not self.low <= self.high:
+            raise ValueError(f"low ({self.low:g}) must not be above high ({self.high:g})")
+        return self
+
+
 class Detector(Params):
     """Zero-velocity detector."""
 
@@ -63,6 +85,8 @@ class Detector(Params):
                               "stance floor (shorter than a stride: follows a change of gait)")
     min_stance: float = param(0.04, unit="s", ge=0, description="zero-velocity runs shorter "
                               "than this are dropped (mid-swing dips)")
+    crawl: CrawlLevels = param(CrawlLevels(), description="adaptive: levels while crawling "
+                               "(resting foot tilted beyond gait.crawl_tilt)")
 
     @model_validator(mode="after")
     def _levels(self) -> "Detector":
@@ -149,14 +173,21 @@ class Gravity(Params):
 
 
 class Height(Params):
-    """Level-floor height correction (zupt-extension)."""
+    """Level-floor height: a sequence of level stances stays at its floor's height
+    (zupt-extension, a height-only update: see ``eskf._level_floor``)."""
 
-    correction: bool = param(False, description="pull a stance back to the previous stance "
-                             "height when they differ by less than level_threshold")
-    level_threshold: float = param(0.08, unit="m", gt=0, description="height change per step "
-                                   "still counted as level floor")
-    level_sigma: float = param(0.01, unit="m", gt=0, description="noise of the level-floor "
+    correction: bool = param(True, description="hold the height of level stance sequences "
+                             "at their floor's (vertical only: the horizontal track is the "
+                             "same either way)")
+    level_threshold: float = param(0.12, unit="m", gt=0, description="height change from "
+                                   "the previous stance (and from the floor) still counted "
+                                   "as level floor; stairs rise more")
+    level_sigma: float = param(0.005, unit="m", gt=0, description="noise of the level-floor "
                                "height measurement")
+    stair_run: float = param(1.2, unit="m", gt=0, description="a step at least this long "
+                             "horizontally is on a floor whatever its height change (one "
+                             "foot's stride on stairs spans two treads, four when taking "
+                             "them two at a time)")
 
 
 class Gait(Params):
@@ -192,6 +223,10 @@ class Outputs(Params):
 
     still_period: float = param(1.0, unit="s", gt=0, description="odometry period while "
                                 "standing still")
+    step_settle: float = param(0.1, unit="s", ge=0, description="a step is published this "
+                               "long into its stance (or at its end, if shorter), when the "
+                               "zero-velocity updates have settled its position; the "
+                               "full-rate state holds the stance there")
     state_rate: float = param(0.0, unit="Hz", ge=0, description="full-rate state output on "
                               "port 'state' at this rate (0: off)")
     retrospective_correction: bool = param(True, description="state output: spread each "
@@ -241,7 +276,10 @@ class ZuptInsParams(Params):
             gravity=self.gravity.g, threshold=thr, low=10.0 ** d.low, high=10.0 ** d.high,
             kappa=d.kappa, prominence=d.prominence, ahead=samples(d.ahead),
             back=samples(d.swing_back), floor_back=samples(d.floor_back),
-            min_stance=max(1, samples(d.min_stance)))
+            min_stance=max(1, samples(d.min_stance)), crawl_up=math.cos(self.gait.crawl_tilt),
+            crawl_low=10.0 ** d.crawl.low, crawl_high=10.0 ** d.crawl.high,
+            crawl_kappa=d.crawl.kappa, crawl_prominence=d.crawl.prominence,
+            crawl_min_stance=max(1, samples(d.crawl.min_stance)))
 
     def filter_config(self, rate: float) -> eskf.FilterConfig:
         """Filter kernel configuration for an IMU at ``rate`` Hz."""
@@ -259,4 +297,6 @@ class ZuptInsParams(Params):
             align_min_samples=max(1, int(round(min(a.duration, a.min_duration) * rate))),
             align_gyro_bias=a.gyro_bias, height_correction=self.height.correction,
             level_threshold=self.height.level_threshold, level_sigma=self.height.level_sigma,
-            still_period=self.outputs.still_period, max_dt=f.max_gap)
+            stair_run=self.height.stair_run,
+            still_period=self.outputs.still_period, step_settle=self.outputs.step_settle,
+            max_dt=f.max_gap)

@@ -12,9 +12,10 @@ In the error-state Kalman filter the first ZUPT of a stance already corrects the
 onset position, through the position-velocity cross-covariance built up during the
 swing (for a velocity error growing linearly this is the same -dv*T/2 as the paper's
 ramp). What the filter does not revise is the swing samples in between: this module
-spreads the onset's position correction (the filter's own, ``Step.correction``) back
-over them with the paper's ramp. It changes the full-rate track, not the step
-increments.
+spreads the onset's position correction (the filter's own, ``E_CORR`` of the step
+event, which is written ``step_settle`` later in the stance) back over them with the
+paper's ramp. It changes the full-rate track before each stance, not the stances: the
+track at a step's time is the step's pose.
 """
 from __future__ import annotations
 
@@ -30,18 +31,19 @@ def ramp_weights(n: int) -> np.ndarray:
 
 
 def correct_positions(t: np.ndarray, pos: np.ndarray, events: np.ndarray) -> np.ndarray:
-    """Positions (N, 3) with each step event's correction spread over its swing.
+    """Positions (N, 3) with each step's onset correction spread over its swing.
 
     ``t`` (N,) and ``pos`` (N, 3) are full-rate filter output; ``events`` rows use the
-    ``eskf.E_*`` columns. Swing samples that are not in ``pos`` are skipped.
+    ``eskf.E_*`` columns. Steps whose stance onset is not in ``t`` are skipped, and
+    swing samples that are not in ``pos``.
     """
     out = np.array(pos, dtype=float, copy=True)
     for ev in events:
         if int(ev[eskf.E_KIND]) != eskf.EVENT_STEP:
             continue
         n = int(ev[eskf.E_SWING_N])
-        k = int(np.searchsorted(t, ev[eskf.E_T]))
-        if n <= 0 or k >= len(t) or t[k] != ev[eskf.E_T]:
+        k = int(np.searchsorted(t, ev[eskf.E_STANCE_T0]))
+        if n <= 0 or k >= len(t) or t[k] != ev[eskf.E_STANCE_T0]:
             continue
         w = ramp_weights(n)
         first = k - n

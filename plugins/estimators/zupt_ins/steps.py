@@ -1,6 +1,7 @@
 """From filter events to step odometry: increments, gait labels, IMU mounting yaw.
 
-The filter writes an event at every stance onset (one step of the instrumented foot)
+The filter writes an event in every stance (one step of the instrumented foot:
+``step_settle`` after the stance onset, or at its end when shorter)
 and every ``still_period`` while the foot rests. :class:`StepTracker` turns them into
 :class:`Step` records: the increment since the previous event in the INS frame, its
 covariance (from the filter's stochastic clone), and a gait label derived from the
@@ -66,7 +67,7 @@ class UnmodelledErrors:
 class Step:
     """One odometry increment of the INS (INS frame: ENU with arbitrary yaw origin)."""
 
-    t: float                 # [s] event time (stance onset or rest tick)
+    t: float                 # [s] event time (settled into the stance, or a rest tick)
     t_start: float           # [s] previous event time
     delta: np.ndarray        # (3,) [m]
     dheading: float          # [rad]

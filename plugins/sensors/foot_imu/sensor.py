@@ -173,7 +173,8 @@ class FootImuSensor(Sensor):
         stream = DeviceStream(agent=agent, device=device,
                               accel=LinearCorrection.build(self._R, cal.accel if cal else None),
                               gyro=LinearCorrection.build(self._R, cal.gyro if cal else None),
-                              mag=LinearCorrection.build(self._R, cal.mag if cal else None))
+                              mag=LinearCorrection.build(self._R, cal.mag if cal else None),
+                              axes=tuple(self.params.axes))
         self._streams[(agent, device)] = stream
         return stream
 

@@ -25,10 +25,11 @@ class DeviceStream:
     mag: LinearCorrection
     history: DeviceHistory = field(default_factory=DeviceHistory)
     held: Samples | None = None   # a last sample that leapt ahead, awaiting its successor
+    axes: tuple[str, ...] = ("x", "y", "z")   # the declared mapping, for the rest check
     rest: RestCheck = field(init=False)
 
     def __post_init__(self) -> None:
-        self.rest = RestCheck(self.device)
+        self.rest = RestCheck(self.device, self.axes)
 
     def condition(self, samples: Samples, limits: ScreeningLimits, final: bool = False
                   ) -> tuple[Screening | None, ImuBlock | None]:

@@ -1,0 +1,234 @@
+"""The ``barometer`` sensor class: barometer lines in, a zeroed height per firefighter out."""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from firenav_framework import Params, PerAgent, RawFrame, Sensor, param
+from firenav_framework.codecs import FrameError
+from firenav_framework.codecs.baro_lines import BaroReading
+from firenav_framework.codecs.selection import CodecSelection, TransportCodecs
+from firenav_framework.contract import NoBuilding
+from firenav_framework.messages import Message, PressureHeight
+
+from .height import Window, Zeroing, height_above, metres_per_pascal
+
+__all__ = ["BarometerSensor"]
+
+
+class Frames(CodecSelection):
+    """Codecs of the RawFrame inputs, per link transport."""
+
+    record: ClassVar[type] = BaroReading
+
+    codecs: dict[str, str] = param({"serial": "baro_lines", "udp": "baro_lines"},
+                                   description="link transport -> codec decoding its lines")
+
+
+@dataclass
+class _Reference:
+    """Recent readings of the reference barometer: (t [s], p [Pa], T [K] or None)."""
+
+    readings: deque = field(default_factory=deque)
+
+    def add(self, t: float, p: float, temperature: float | None, keep: float) -> None:
+        self.readings.append((t, p, temperature))
+        while self.readings and self.readings[0][0] < t - keep:
+            self.readings.popleft()
+
+    def mean_between(self, t0: float, t1: float) -> tuple[float, int] | None:
+        """(mean pressure, n) of the readings with ``t0 <= t <= t1``, or None."""
+        used = [r[1] for r in self.readings if t0 <= r[0] <= t1]
+        return (sum(used) / len(used), len(used)) if used else None
+
+    def at(self, t: float, window: float) -> tuple[float, float, float | None, int] | None:
+        """(mean pressure, age [s] of the newest reading, mean temperature, n) of the
+        readings in the ``window`` [s] up to ``t``, or None."""
+        used = [r for r in self.readings if t - window <= r[0] <= t]
+        if not used and self.readings and self.readings[-1][0] <= t:
+            used = [self.readings[-1]]  # none that recent: the newest, with its age
+        if not used:
+            return None
+        temps = [r[2] for r in used if r[2] is not None]
+        return (sum(r[1] for r in used) / len(used), t - used[-1][0],
+                sum(temps) / len(temps) if temps else None, len(used))
+
+
+@dataclass
+class _Wearer:
+    window: Window = field(default_factory=Window)
+    zeroing: Zeroing = field(default_factory=Zeroing)
+    device: str = ""
+    zeroed_at: float = math.nan
+
+
+class BarometerSensor(Sensor):
+    """Barometer: static pressure to height above the entrance, zeroed against a reference at the entrance or base station."""
+
+    name = "barometer"
+    inputs = (RawFrame,)
+    outputs = {"height": PressureHeight}
+
+    class Params(Params):
+        reference: str = param("base/baro", description="device id of the reference "
+                               "barometer at the entrance or base station; empty: none "
+                               "(weather drift then grows the uncertainty)")
+        devices: dict[str, str] = param({}, description="barometer id -> firefighter, for "
+                                        "ids not named '<agent>/<device>'")
+        period: float = param(0.5, unit="s", gt=0, description="at most one height per "
+                              "firefighter this often (the mean of its readings; the end "
+                              "of the data flushes the last one)")
+        calibrate_s: float = param(10.0, unit="s", gt=0, description="zeroing: the first "
+                                   "seconds of a firefighter's readings, at the zeroing level")
+        zero_level: float | None = param(None, unit="m", description="building z of the "
+                                         "zeroing level (default: the floor of the "
+                                         "building's first entrance, else 0)")
+        air_temperature: float = param(293.15, unit="K", gt=150, lt=400, description="air "
+                                       "temperature of the height formula when the "
+                                       "reference reports none")
+        pressure_noise: float = param(2.0, unit="Pa", gt=0, description="1-sigma noise of "
+                                      "one reading (BMP388/MS5611 class: 1-3 Pa)")
+        indoor_offset: float = param(10.0, unit="Pa", ge=0, description="1-sigma pressure "
+                                     "difference inside vs. the reference that zeroing "
+                                     "cannot remove (fire, doors, ventilation, stack effect)")
+        drift_rate: float = param(0.02, unit="Pa/s", ge=0, description="1-sigma weather "
+                                  "drift per second of an unheard reference (about 1 hPa "
+                                  "in 3 h; fronts are faster)")
+        reference_window: float = param(10.0, unit="s", gt=0, description="the reference "
+                                        "is the mean of its readings this long before")
+        frames: Frames = param(Frames(), description="RawFrame inputs: the codec per "
+                               "transport and its options")
+
+    def __init__(self, params: Params, ctx):
+        super().__init__(params, ctx)
+        self._codecs = TransportCodecs(params.frames, count=ctx.count, resolve=ctx.resolve)
+        self._wearers: PerAgent[_Wearer] = PerAgent(lambda agent: _Wearer())
+        self._reference = _Reference()
+        self._last_t: dict[str, float] = {}
+
+    def start(self) -> None:
+        level = self.params.zero_level
+        if level is None:
+            level = 0.0
+            if self.ctx.has_building:
+                try:
+                    b = self.ctx.building
+                    if b.entrances:
+                        level = float(b.floor(b.entrances[0].floor).z)
+                except NoBuilding:
+                    pass
+        self.zero_level = level
+
+    def reset(self, agent: str) -> None:
+        self._wearers.reset(agent)
+
+    def handle(self, stream: str, msg: Message) -> None:
+        if not isinstance(msg, RawFrame):
+            self.ctx.count("ignored_messages")
+            return
+        codec = self._codecs.get(msg.transport)
+        if codec is None:
+            self.ctx.count("frames_not_lines")
+            return
+        try:
+            readings = codec.decode(msg)
+        except FrameError as exc:
+            self.ctx.count(exc.code)
+            self.ctx.report(msg.t, "baro_bad_line", f"broken barometer lines ({exc})",
+                            key=msg.device or "barometer link", agent=msg.agent)
+            return
+        if readings is None:
+            self.ctx.count("other_lines")
+            return
+        for r in readings:
+            self._reading(r, msg.agent)
+
+    # ------------------------------------------------------------------ readings
+    def _reading(self, r: BaroReading, link_agent: str) -> None:
+        if not math.isfinite(r.t) or r.t <= self._last_t.get(r.device, -math.inf):
+            self.ctx.count("out_of_order_readings")
+            self.ctx.report(r.t if math.isfinite(r.t) else 0.0, "baro_out_of_order",
+                            "barometer readings not after the previous one, skipped",
+                            key=r.device, agent=link_agent)
+            return
+        self._last_t[r.device] = r.t
+        if self.params.reference and r.device == self.params.reference:
+            self._reference.add(r.t, r.pressure, r.temperature,
+                                max(self.params.reference_window, self.params.calibrate_s))
+            self.ctx.count("reference_readings")
+            return
+        agent = self.params.devices.get(r.device) or link_agent or (
+            r.device.split("/", 1)[0] if "/" in r.device else "")
+        if not agent:
+            self.ctx.count("unknown_barometers")
+            self.ctx.warn_once(r.t, "baro_unknown_device", f"barometer {r.device!r} is "
+                               "neither the reference nor named '<agent>/<device>' (set "
+                               "devices:); its readings are skipped", key=r.device)
+            return
+        w = self._wearers[agent]
+        w.device = r.device
+        if not w.zeroing.done:
+            if not w.zeroing.add(r.t, r.pressure, self.params.calibrate_s):
+                self.ctx.count("zeroing_readings")
+                return
+            if self.params.reference:
+                ref = self._reference.mean_between(w.zeroing.first_t, r.t)
+                if ref is None:  # no reference heard while zeroing: start again
+                    self.ctx.count("zeroings_without_reference")
+                    self.ctx.report(r.t, "baro_no_reference", "no reading of the reference "
+                                    f"barometer {self.params.reference!r} while zeroing; "
+                                    "zeroing again", key=r.device, agent=agent)
+                    w.zeroing = Zeroing()
+                    return
+                w.zeroing.close(*ref)
+            else:
+                w.zeroing.close()
+            w.zeroed_at = r.t
+            self.ctx.diagnose(r.t, "info", "baro_zeroed", f"{r.device}: zeroed on "
+                              f"{w.zeroing.n} readings at the level z={self.zero_level:g} m "
+                              f"(offset to the reference {w.zeroing.offset:+.1f} Pa)"
+                              if self.params.reference else
+                              f"{r.device}: zeroed on {w.zeroing.n} readings at the level "
+                              f"z={self.zero_level:g} m, no reference: weather drift grows "
+                              "the uncertainty", agent=agent)
+        if w.window.n and r.t - w.window.start >= self.params.period:
+            self._emit(agent, w, w.window.last_t)
+        w.window.add(r.t, r.pressure)
+
+    def _emit(self, agent: str, w: _Wearer, t: float) -> None:
+        p = self.params
+        pressure = w.window.mean()
+        interval = t - w.window.start
+        n = w.window.n
+        w.window.clear()
+        zeroing = w.zeroing
+        noise2 = p.pressure_noise ** 2 * (1.0 / n + 1.0 / zeroing.n
+                                          + (1.0 / zeroing.n_reference if p.reference else 0.0))
+        temperature = p.air_temperature
+        if p.reference:
+            ref = self._reference.at(t, p.reference_window)
+            if ref is None:  # cannot happen after zeroing with a reference; kept safe
+                self.ctx.count("heights_without_reference")
+                return
+            ref_p, age, ref_temp, ref_n = ref
+            reference = ref_p + w.zeroing.offset
+            noise2 += p.pressure_noise ** 2 / ref_n
+            if ref_temp is not None:
+                temperature = ref_temp
+        else:
+            reference, age = w.zeroing.offset, t - w.zeroed_at
+        sigma_p = math.sqrt(noise2 + p.indoor_offset ** 2 + (p.drift_rate * age) ** 2)
+        height = self.zero_level + height_above(reference, pressure, temperature)
+        sigma = metres_per_pascal(pressure, temperature) * sigma_p
+        self.ctx.count("heights")
+        self.ctx.publish("height", PressureHeight(
+            t=t, agent=agent, device=w.device, height=height, sigma=sigma, pressure=pressure,
+            reference_pressure=reference, reference_age=age, interval=interval,
+            zero_level=self.zero_level))
+
+    def finish(self) -> None:
+        for agent, w in self._wearers.items():
+            if w.zeroing.done and w.window.n:
+                self._emit(agent, w, w.window.last_t)
