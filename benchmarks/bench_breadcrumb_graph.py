@@ -19,8 +19,9 @@ happens). Reported per update, in the same run:
 * sparse batch BLUE - assemble the whole Kirchhoff matrix (eqs. 4, 7, 9, 20, 21),
   factorise it and get the same estimates and covariance blocks (every Nth update);
 * GTSAM iSAM2 (update + estimate of the new state) and GTSAM batch
-  Levenberg-Marquardt on the final graph, when ``gtsam`` is installed (optional:
-  ``pip install gtsam``; never a dependency of firenav).
+  Levenberg-Marquardt on the final graph, when ``gtsam`` is installed (the benchmark
+  extra, ``pip install -e '.[bench]'``; never a dependency of firenav), with
+  ``--heading-states`` on the same graph with the same heading nodes and edges.
 
 With ``--heading-states`` every state also gets the heading state the ``breadcrumb_gen``
 plugin uses (``h = (psi, omega, kappa)``, a linear motion edge from the previous one) and
@@ -44,6 +45,7 @@ from dataclasses import dataclass, field
 
 # Small dense updates: one BLAS thread each is faster, and much faster on a loaded machine.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
@@ -240,8 +242,42 @@ def run_batch_sampled(updates: list[Update], every: int, heading_states: bool = 
     return np.array(out)
 
 
-def run_gtsam(updates: list[Update], gtsam) -> dict:
-    """iSAM2 per update, then batch LM on the whole graph."""
+def _heading_factors(gtsam):
+    """GTSAM factors of the heading states, as GTSAM's Python ``CustomFactor``s (it has no
+    built-in for them): the motion edge ``h - F h_parent`` and the odometry measured in a
+    frame turned by ``psi_h``, ``x_i - x_j - R_z(psi_h) zeta`` (the plugin's edges)."""
+    F = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+
+    def motion(h: int, parent: int):
+        def error(this, values, jacobians):
+            if jacobians is not None:
+                jacobians[0] = np.eye(3)
+                jacobians[1] = -F
+            return values.atVector(h) - F @ values.atVector(parent)
+        return gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Covariance(HEADING_WALK),
+                                  [h, parent], error)
+
+    def rotated(i: int, j: int, h: int, zeta: np.ndarray, cov: np.ndarray):
+        def error(this, values, jacobians):
+            psi = values.atVector(h)[0]
+            c, s_ = np.cos(psi), np.sin(psi)
+            turned = np.array([c * zeta[0] - s_ * zeta[1], s_ * zeta[0] + c * zeta[1], zeta[2]])
+            if jacobians is not None:
+                jacobians[0] = np.eye(3)
+                jacobians[1] = -np.eye(3)
+                g = np.zeros((3, 3))
+                g[:, 0] = -np.array([-s_ * zeta[0] - c * zeta[1], c * zeta[0] - s_ * zeta[1], 0.0])
+                jacobians[2] = g
+            return values.atPoint3(i) - values.atPoint3(j) - turned
+        return gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Covariance(cov), [i, j, h], error)
+
+    return motion, rotated
+
+
+def run_gtsam(updates: list[Update], gtsam, heading_states: bool = False) -> dict:
+    """iSAM2 per update, then batch LM on the whole graph; with ``heading_states`` the
+    same heading nodes and edges as :func:`add_odometry` gives ours."""
+    motion, rotated = _heading_factors(gtsam)
     keys: dict[str, int] = {}
 
     def key(name: str) -> int:
@@ -261,9 +297,21 @@ def run_gtsam(updates: list[Update], gtsam) -> dict:
             vals.insert(key("base"), np.zeros(3))
         guess = est[up.parent] + up.odo
         vals.insert(key(up.key), guess)
-        # GTSAM's Between(a, b) measures x_b - x_a; our zeta_ij measures x_i - x_j
-        graph.add(gtsam.BetweenFactorPoint3(key(up.parent), key(up.key), up.odo,
-                                            gtsam.noiseModel.Gaussian.Covariance(up.odo_cov)))
+        if heading_states and up.parent != "base":
+            h = key(f"{up.key}/h")
+            vals.insert(h, est[f"{up.parent}/h"])
+            graph.add(motion(h, key(f"{up.parent}/h")))
+            odo = rotate_z(up.odo[None], np.array([-up.psi]))[0]
+            graph.add(rotated(key(up.key), key(up.parent), h, odo, up.odo_cov))
+        else:
+            if heading_states:
+                h = key(f"{up.key}/h")
+                vals.insert(h, np.zeros(3))
+                graph.add(gtsam.PriorFactorVector(h, np.zeros(3),
+                                                  gtsam.noiseModel.Gaussian.Covariance(HEADING_PRIOR)))
+            # GTSAM's Between(a, b) measures x_b - x_a; our zeta_ij measures x_i - x_j
+            graph.add(gtsam.BetweenFactorPoint3(key(up.parent), key(up.key), up.odo,
+                                                gtsam.noiseModel.Gaussian.Covariance(up.odo_cov)))
         for other, r, var in up.ranges:
             graph.add(gtsam.RangeFactor3(key(up.key), key(other), r,
                                          gtsam.noiseModel.Isotropic.Sigma(1, np.sqrt(var))))
@@ -277,6 +325,8 @@ def run_gtsam(updates: list[Update], gtsam) -> dict:
         t0 = time.perf_counter()
         isam.update(graph, vals)
         est[up.key] = isam.calculateEstimatePoint3(key(up.key))
+        if heading_states:
+            est[f"{up.key}/h"] = isam.calculateEstimateVector(key(f"{up.key}/h"))
         lat[k] = time.perf_counter() - t0
         if up.drop:
             est[up.drop] = isam.calculateEstimatePoint3(key(up.drop))
@@ -291,15 +341,23 @@ def run_gtsam(updates: list[Update], gtsam) -> dict:
     lm = gtsam.LevenbergMarquardtOptimizer(full, init_all, params).optimize()
     batch_s = time.perf_counter() - t0
     names = {v: k for k, v in keys.items()}
+    points = [k for k in final.keys() if not names[k].endswith("/h")]
     return {"lat": lat, "batch_s": batch_s,
-            "isam": {names[k]: final.atPoint3(k) for k in final.keys()},
-            "lm": {names[k]: lm.atPoint3(k) for k in lm.keys()}}
+            "isam": {names[k]: final.atPoint3(k) for k in points},
+            "lm": {names[k]: lm.atPoint3(k) for k in points}}
 
 
 def stats(lat_s: np.ndarray) -> str:
     ms = 1e3 * np.asarray(lat_s)
     return (f"median {np.median(ms):7.2f} ms  mean {ms.mean():7.2f} ms  "
             f"p95 {np.percentile(ms, 95):7.2f} ms  max {ms.max():7.1f} ms")
+
+
+def with_cpu(fn, *args, **kw):
+    """``fn(*args, **kw)`` and the CPU seconds of this process it took."""
+    c0 = time.process_time()
+    out = fn(*args, **kw)
+    return out, time.process_time() - c0
 
 
 def max_diff(a: dict, b: dict) -> float:
@@ -325,9 +383,10 @@ def main() -> None:
           f"({sum(len(u.ranges) for u in updates)} ranges, "
           f"{sum(len(u.encounters) for u in updates)} encounters), 20 agents, seed {args.seed}")
 
-    gen, lat = run_ours(updates)
+    (gen, lat), cpu = with_cpu(run_ours, updates)
     print(f"ours (incremental GEN)     {stats(lat)}   "
-          f"[{gen.solver.rebuilds} refactorisations, {gen.relinearised} relinearisations]")
+          f"[{gen.solver.rebuilds} refactorisations, {gen.relinearised} relinearisations; "
+          f"CPU {cpu:.1f} s, wall {lat.sum():.1f} s]")
     batch = run_batch_sampled(updates, args.batch_every)
     print(f"sparse batch BLUE          {stats(batch)}   (every {args.batch_every}th update)")
     inc = gen.estimates()
@@ -349,9 +408,10 @@ def main() -> None:
           f"vs batch BLUE max |dx| = {max_diff(lin.estimates(), ref):.1e} m")
 
     if args.heading_states:
-        hs, lat_h = run_ours(updates, heading_states=True)
+        (hs, lat_h), cpu_h = with_cpu(run_ours, updates, heading_states=True)
         print(f"with heading states: ours {stats(lat_h)}   [{hs.solver.rebuilds} "
-              f"refactorisations, {hs.relinearised} relinearisations]")
+              f"refactorisations, {hs.relinearised} relinearisations; CPU {cpu_h:.1f} s, "
+              f"wall {lat_h.sum():.1f} s]")
         print(f"with heading states: sparse batch BLUE "
               f"{stats(run_batch_sampled(updates, args.batch_every, heading_states=True))}")
         inc_h = {k: v for k, v in hs.estimates().items() if not str(k).endswith("/h")}
@@ -364,8 +424,16 @@ def main() -> None:
     except ImportError:
         print("GTSAM: not installed (pip install gtsam) - iSAM2 / LM columns skipped")
         return
-    g = run_gtsam(updates, gtsam)
-    print(f"GTSAM iSAM2 (update+est.)  {stats(g['lat'])}")
+    g, cpu_g = with_cpu(run_gtsam, updates, gtsam)
+    print(f"GTSAM iSAM2 (update+est.)  {stats(g['lat'])}   [CPU {cpu_g:.1f} s incl. batch "
+          f"LM, wall {g['lat'].sum():.1f} s of updates]")
+    if args.heading_states:
+        gh, cpu_gh = with_cpu(run_gtsam, updates, gtsam, heading_states=True)
+        print(f"with heading states: GTSAM iSAM2 (update+est.) {stats(gh['lat'])}   "
+              f"[CPU {cpu_gh:.1f} s incl. batch LM, wall {gh['lat'].sum():.1f} s of updates] "
+              f"(its heading edges are Python CustomFactors); batch LM "
+              f"{1e3 * gh['batch_s']:.0f} ms; ours batch optimum vs GTSAM LM max |dx| = "
+              f"{max_diff(opt_h, gh['lm']):.1e} m")
     print(f"GTSAM batch LM on the final graph: {1e3 * g['batch_s']:.0f} ms")
     print(f"final estimates: ours (batch optimum) vs GTSAM LM max |dx| = "
           f"{max_diff(opt, g['lm']):.1e} m; ours incremental vs iSAM2 final "

@@ -6,11 +6,20 @@ pattern comparison every 2 m walked over the last 20 m, q = 10 % pseudo-observat
 resampling), is fed the odometry of firefighters searching a bundled plan (right-hand
 searches with a drifting INS, starting at different places, unknown start). Reported:
 
-* real-time factor = simulated seconds / wall seconds, for 1 and for 10 firefighters
-  handled at once by one filter, at 500 and 5 000 particles per firefighter;
-* the same for a straightforward reference in the same run: one Python ICP call per
-  (pattern, rotation) with a KD-tree over the densified pattern and numpy Kabsch, and
-  the all-pairs numpy wall test of ``bench_wall_crossing.py``.
+* real-time factor = simulated seconds / wall seconds (and CPU seconds of this
+  process), for 1 and for 10 firefighters handled at once by one filter, at 500 and
+  5 000 particles per firefighter, with walls and search patterns;
+* the peer, walls only, beside ours with walls only on the same odometry: Stone Soup's
+  particle filter (``ParticlePredictor`` with an odometry transition model,
+  ``ParticleUpdater`` with its ``constraint_func`` giving particles whose step crosses a
+  wall zero weight, tested with shapely 2's vectorised ``intersects`` against the
+  floor's walls, ``ESSResampler``), one firefighter (install the benchmark extra:
+  ``pip install -e '.[bench]'``);
+* a straightforward search-pattern reference in the same run: one Python ICP call per
+  (pattern, rotation) with a KD-tree over the densified pattern and numpy Kabsch.
+
+Numba and BLAS run single-threaded (NUMBA_NUM_THREADS=1, one BLAS thread), so both
+sides use one core.
 
 Goals (issue 6): >= 100x real time at 500 particles for one firefighter; >= 1x (real
 time) for 10 firefighters at 5 000 particles each. Run:
@@ -21,16 +30,19 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
-from scipy.spatial import cKDTree
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+from scipy.spatial import cKDTree  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench_wall_crossing import numpy_all_pairs  # noqa: E402
 
 from firenav_framework.building import bundled_plan, load_building  # noqa: E402
 from firenav_framework.building.search_patterns import extract_search_patterns  # noqa: E402
@@ -106,16 +118,94 @@ class ReferenceIcp(SearchPatternIcpConstraint):
         return self._comparison
 
 
-class ReferenceWalls(WallCrossingConstraint):
-    name = "wall_crossing_reference"
+# ----------------------------------------------------------------------------- the peer
+def stonesoup_filter(building, odometry: list, particles: int, seed: int = 0
+                     ) -> tuple[float, float, float]:
+    """(simulated s, wall s, CPU s) of Stone Soup's particle filter with shapely walls
+    over one firefighter's odometry (state per particle: x, y [m], heading offset [rad]
+    of the INS frame; the same step noise as ours by default)."""
+    import shapely
+    from stonesoup.models.measurement.base import MeasurementModel
+    from stonesoup.models.transition.base import TransitionModel
+    from stonesoup.predictor.particle import ParticlePredictor
+    from stonesoup.resampler.particle import ESSResampler
+    from stonesoup.types.array import StateVectors
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import ParticleState
+    from stonesoup.updater.particle import ParticleUpdater
 
-    def log_likelihood(self, step):
-        crossed = np.zeros(len(step.particles), bool)
-        for fl in np.unique(step.before.floor):
-            sel = step.before.floor == fl
-            crossed[sel] = numpy_all_pairs(step.before.xy[sel], step.particles.xy[sel],
-                                           step.building.floors[int(fl)].walls)
-        return np.where(crossed, -math.inf, 0.0)
+    rng = np.random.default_rng(seed)
+    walls = shapely.multilinestrings(list(building.floors[0].walls))
+    shapely.prepare(walls)
+
+    class OdometryTransition(TransitionModel):
+        """Each particle moves by the INS step turned by its heading offset, with 5 %
+        length and 2 deg heading noise per step."""
+
+        @property
+        def ndim_state(self) -> int:
+            return 3
+
+        def function(self, state, noise=False, step=(0.0, 0.0), **kwargs):
+            x = np.asarray(state.state_vector, float)
+            n = x.shape[1]
+            off = x[2] + (rng.normal(0, math.radians(2), n) if noise else 0.0)
+            scale = 1.0 + (rng.normal(0, 0.05, n) if noise else 0.0)
+            c, s_ = np.cos(off), np.sin(off)
+            dx, dy = step
+            return StateVectors(np.vstack((x[0] + scale * (c * dx - s_ * dy),
+                                           x[1] + scale * (s_ * dx + c * dy), off)))
+
+        def rvs(self, num_samples=1, **kwargs):
+            raise NotImplementedError
+
+        def pdf(self, state1, state2, **kwargs):
+            raise NotImplementedError
+
+    class Uninformative(MeasurementModel):
+        """The odometry step carries no position measurement: equal likelihood."""
+
+        @property
+        def ndim_meas(self) -> int:
+            return 1
+
+        def function(self, state, noise=False, **kwargs):
+            raise NotImplementedError
+
+        def rvs(self, num_samples=1, **kwargs):
+            raise NotImplementedError
+
+        def pdf(self, state1, state2, **kwargs):
+            raise NotImplementedError
+
+        def logpdf(self, state1, state2, **kwargs):
+            return np.zeros(np.shape(state2.state_vector)[1])
+
+    def crosses_wall(predicted) -> np.ndarray:
+        before = np.asarray(predicted.parent.state_vector, float)[:2].T
+        after = np.asarray(predicted.state_vector, float)[:2].T
+        return shapely.intersects(shapely.linestrings(np.stack((before, after), 1)), walls)
+
+    lo, hi = building.floors[0].walls.reshape(-1, 2).min(0), building.floors[0].walls.reshape(-1, 2).max(0)
+    start = np.vstack((rng.uniform(lo[0], hi[0], particles), rng.uniform(lo[1], hi[1], particles),
+                       rng.uniform(-math.pi, math.pi, particles)))
+    t0 = odometry[0].t_start
+    from datetime import datetime, timedelta
+    epoch = datetime(2020, 1, 1)
+    state = ParticleState(StateVectors(start), log_weight=np.full(particles, -math.log(particles)),
+                          timestamp=epoch + timedelta(seconds=t0))
+    predictor = ParticlePredictor(OdometryTransition())
+    model = Uninformative(ndim_state=3, mapping=(0,))
+    updater = ParticleUpdater(measurement_model=model, resampler=ESSResampler(),
+                              constraint_func=crosses_wall)
+    w0, c0 = time.perf_counter(), time.process_time()
+    for o in odometry:
+        when = epoch + timedelta(seconds=o.t)
+        predicted = predictor.predict(state, timestamp=when, step=(o.delta[0], o.delta[1]))
+        state = updater.update(SingleHypothesis(predicted, Detection(
+            np.zeros((1, 1)), timestamp=when, measurement_model=model)))
+    return o.t - t0, time.perf_counter() - w0, time.process_time() - c0
 
 
 # ----------------------------------------------------------------------------- workload
@@ -134,26 +224,31 @@ def walks(building, n_ff: int, minutes: float) -> list:
     return out
 
 
-def run(building, odometry: list, particles: int, reference: bool) -> tuple[float, float, dict]:
-    """(simulated seconds, wall seconds, counts) of one filter over all agents' odometry."""
+def run(building, odometry: list, particles: int, patterns: str | None
+        ) -> tuple[float, float, float, dict]:
+    """(simulated s, wall s, CPU s, counts) of our filter over all agents' odometry, with
+    wall crossing and the search patterns ``patterns`` (``"ours"``, ``"reference"``, or
+    None: walls only)."""
     pf, rec, stats = make_component(ParticleFilterEstimator, {"particles": particles, "start": {"mode": "unknown"}},
                                     building=building)
-    walls_cls, icp_cls = ((ReferenceWalls, ReferenceIcp) if reference else
-                          (WallCrossingConstraint, SearchPatternIcpConstraint))
+    classes = [(WallCrossingConstraint, "walls")]
+    if patterns is not None:
+        classes.append((ReferenceIcp if patterns == "reference" else SearchPatternIcpConstraint,
+                        "icp"))
     all_stats = [stats]
-    for cls, cid in ((walls_cls, "walls"), (icp_cls, "icp")):
+    for cls, cid in classes:
         c, _, cstats = make_component(cls, {}, building=building, cid=cid)
         c.start()
         pf.constraints.append(c)
         all_stats.append(cstats)
     msgs = sorted((m for agent in odometry for m in agent), key=lambda m: m.t)
-    t0 = time.perf_counter()
+    w0, c0 = time.perf_counter(), time.process_time()
     for m in msgs:
         pf.handle("odo", m)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     sim = max(a[-1].t for a in odometry) - min(a[0].t_start for a in odometry)
     counts = {k: v for st in all_stats for c in st.counts.values() for k, v in c.items()}
-    return sim, wall, counts
+    return sim, wall, cpu, counts
 
 
 def main() -> None:
@@ -161,30 +256,50 @@ def main() -> None:
     ap.add_argument("--plan", default="flat_125")
     ap.add_argument("--minutes", type=float, default=5.0, help="simulated search per firefighter")
     ap.add_argument("--reference-minutes", type=float, default=2.0,
-                    help="simulated minutes for the (slow) reference")
+                    help="simulated minutes for the (slow) search-pattern reference")
     args = ap.parse_args()
+    from threadpoolctl import threadpool_limits
+    threadpool_limits(1)
     building = load_building(bundled_plan(args.plan))
     # warm up the compiled kernels so that compilation is not timed
-    run(building, walks(building, 1, 0.7), 100, reference=False)
+    run(building, walks(building, 1, 0.7), 100, "ours")
     rows = []
+    try:
+        import stonesoup  # noqa: F401
+    except ImportError:
+        stonesoup = None
     for particles in (500, 5000):
+        one = walks(building, 1, args.minutes)
+        sim, wall, cpu, _ = run(building, one, particles, None)
+        rows.append(("ours, walls", particles, 1, sim, wall, cpu, 0))
+        if stonesoup is not None:
+            sim_s, wall_s, cpu_s = stonesoup_filter(building, one[0], particles)
+            rows.append(("Stone Soup + shapely, walls", particles, 1, sim_s, wall_s, cpu_s, 0))
         for n_ff in (1, 10):
-            sim, wall, counts = run(building, walks(building, n_ff, args.minutes), particles, False)
-            rows.append(("ours", particles, n_ff, sim, wall, counts.get("comparisons", 0)))
-            if n_ff == 1:
-                sim_r, wall_r, counts_r = run(building, walks(building, 1, args.reference_minutes),
-                                              particles, True)
-                rows.append(("reference", particles, n_ff, sim_r, wall_r,
-                             counts_r.get("comparisons", 0)))
-    print(f"plan {args.plan}; real-time factor = simulated time / wall time "
-          f"(10 firefighters: all processed together)")
-    print(f"{'impl':<10} {'particles':>9} {'firefighters':>12} {'sim [s]':>8} {'wall [s]':>9} "
-          f"{'comparisons':>11} {'RT factor':>10}")
-    for impl, particles, n_ff, sim, wall, comps in rows:
-        print(f"{impl:<10} {particles:>9} {n_ff:>12} {sim:>8.0f} {wall:>9.2f} {comps:>11} "
-              f"{sim / wall:>9.1f}x")
-    goal1 = next(r for r in rows if r[:3] == ("ours", 500, 1))
-    goal2 = next(r for r in rows if r[:3] == ("ours", 5000, 10))
+            sim, wall, cpu, counts = run(building, walks(building, n_ff, args.minutes),
+                                         particles, "ours")
+            rows.append(("ours, walls + patterns", particles, n_ff, sim, wall, cpu,
+                         counts.get("comparisons", 0)))
+        sim_r, wall_r, cpu_r, counts_r = run(building, walks(building, 1, args.reference_minutes),
+                                             particles, "reference")
+        rows.append(("ours, walls + reference ICP", particles, 1, sim_r, wall_r, cpu_r,
+                     counts_r.get("comparisons", 0)))
+    print(f"plan {args.plan}; real-time factor = simulated time / wall time (and / CPU "
+          f"time); 10 firefighters: all processed together; one thread everywhere"
+          + ("" if stonesoup else "; Stone Soup not installed (pip install -e '.[bench]')"))
+    print(f"{'impl':<30} {'particles':>9} {'ff':>3} {'sim [s]':>8} {'wall [s]':>9} "
+          f"{'CPU [s]':>8} {'comparisons':>11} {'RT (wall)':>10} {'RT (CPU)':>9}")
+    for impl, particles, n_ff, sim, wall, cpu, comps in rows:
+        print(f"{impl:<30} {particles:>9} {n_ff:>3} {sim:>8.0f} {wall:>9.2f} {cpu:>8.2f} "
+              f"{comps:>11} {sim / wall:>9.1f}x {sim / cpu:>8.1f}x")
+    for particles in (500, 5000):
+        ours = next(r for r in rows if r[:2] == ("ours, walls", particles))
+        peer = next((r for r in rows if r[:2] == ("Stone Soup + shapely, walls", particles)), None)
+        if peer is not None:
+            print(f"walls only, {particles} particles: ours {peer[4] / ours[4]:.1f}x faster "
+                  f"than Stone Soup + shapely (wall), {peer[5] / ours[5]:.1f}x (CPU)")
+    goal1 = next(r for r in rows if r[:3] == ("ours, walls + patterns", 500, 1))
+    goal2 = next(r for r in rows if r[:3] == ("ours, walls + patterns", 5000, 10))
     print(f"goal >= 100x at 500 particles, 1 firefighter: {goal1[3] / goal1[4]:.0f}x "
           f"({'met' if goal1[3] / goal1[4] >= 100 else 'NOT met'})")
     print(f"goal >= 1x at 5000 particles, 10 firefighters: {goal2[3] / goal2[4]:.1f}x "

@@ -98,8 +98,9 @@ class Message:
 
     def dedup_key(self) -> Hashable:
         """A key equal for exact duplicates only (time included): what the timeline
-        remembers per channel. Messages made only of hashable fields override this
-        with a plain tuple, which is much cheaper than :meth:`digest`."""
+        compares for a message no newer than its channel's newest (only those can be
+        duplicates). Messages made only of hashable fields override this with a plain
+        tuple, which is much cheaper than :meth:`digest`."""
         return self.digest()
 
     def digest(self) -> bytes:

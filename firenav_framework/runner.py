@@ -25,6 +25,7 @@ from typing import Any, TextIO
 from .bus import Bus, Fault, Subscription
 from .contract import Component, Context, Estimator, Source
 from .contract.context import PIPELINE_DIR, NoBuilding
+from .execution import AgentLanes, Backpressure, lane_components
 from .messages import Diagnostic, Message
 from .pipeline import PipelineSpec
 from .stats import RunStats
@@ -105,7 +106,10 @@ class Runner:
     def __init__(self, spec: PipelineSpec, *, output_dir: Path | None = None,
                  realtime: bool = False, speed: float = 1.0,
                  progress: TextIO | None = None, progress_every: float = 2.0,
-                 hard_exit: bool = False):
+                 workers: int = 0, backpressure: bool = True, hard_exit: bool = False):
+        """``workers``: threads for the per-firefighter work of components that allow it
+        (0: none); ``backpressure``: in live runs, degrade firefighters while the kit is
+        behind (:mod:`.execution`); ``hard_exit``: see :mod:`.watchdog`."""
         self.spec = spec
         self.output_dir = output_dir
         self.realtime = realtime
@@ -124,6 +128,10 @@ class Runner:
         self._stop = threading.Event()
         self._building_cache: list[Any] = []
         self._tick_streams: set[str] = set()
+        self.workers = workers              # threads for per-firefighter work (0: none)
+        self.use_backpressure = backpressure
+        self.lanes: AgentLanes | None = None
+        self.backpressure: Backpressure | None = None
         self._relabels: set[tuple[str, str]] = set()
 
     # -- construction ---------------------------------------------------------------
@@ -226,6 +234,20 @@ class Runner:
                 parent.constraints.append(self.components[cs.id])
         self.bus.taps.append(self.store)
         self.bus.taps.append(self._tap_diagnostics)
+        self._setup_execution()
+
+    def _setup_execution(self) -> None:
+        """Worker lanes for per-firefighter work and the live backpressure (execution.py)."""
+        if self.workers:
+            self.lanes = AgentLanes(self.bus, self._publish, self.workers)
+            self.lanes.install(self.subs, lane_components(self.components),
+                               {cs.id: tuple(cs.inputs) for cs in self.spec.components})
+        live = any(isinstance(c, Source) and c.live for c in self.components.values())
+        if self.use_backpressure and live:
+            bp = self.backpressure = Backpressure(
+                self.components, lambda d: self.bus.publish("runner.diagnostics", d))
+            if bp.components:
+                self.bus.taps.append(lambda stream, msg: bp.saw(msg.agent))
 
     def _tap_diagnostics(self, stream: str, msg: Message) -> None:
         if isinstance(msg, Diagnostic):
@@ -297,10 +319,14 @@ class Runner:
             self.stop()
             raise
         for cid, comp in self.components.items():
+            if self.lanes is not None:   # what the workers hold goes out before finish
+                self.lanes.sync()
             if not isinstance(comp, Source):
                 self.bus.call(self.subs[cid], "finish", comp.finish,
                               t=self._t_last if self._t_last is not None else 0.0)
             comp.ctx.flush_reports()
+        if self.lanes is not None:
+            self.lanes.close()
         return RunResult(
             pipeline=self.spec.name, stats=self.stats, tracks=self.store.tracks(),
             truth=self.store.truth(), diagnostics=self.diagnostics, faults=self.bus.faults,
@@ -378,12 +404,20 @@ class Runner:
                     stream, msg = item
                     self.timeline.push(stream, msg)
                     heapq.heappush(arrivals, (wall, msg.t))
+                    self._note_wait(msg, wall)
             now = time.monotonic()
             older = -math.inf
             while arrivals and arrivals[0][0] + window <= now:
                 older = max(older, heapq.heappop(arrivals)[1])
             self._dispatch(self.timeline.release(older_than=older), progress)
+            if self.lanes is not None:
+                self.lanes.sync()
         self._dispatch(self.timeline.release(flush=True), progress)
+
+    def _note_wait(self, msg: Message, arrived: float) -> None:
+        """Tell the backpressure how long a live message queued before the pipeline took it."""
+        if self.backpressure is not None:
+            self.backpressure.observe(time.monotonic() - arrived, time.monotonic(), msg.t)
 
     def _dispatch(self, released: list[tuple[str, Message]], progress: _Progress) -> None:
         for stream, msg in released:
@@ -393,6 +427,8 @@ class Runner:
             if self.realtime:
                 self._pace(msg.t)
             self.bus.publish(stream, msg)
+            if self.lanes is not None:
+                self.lanes.dispatched_one()
             progress.update(msg.t)
 
     def _pace(self, t: float) -> None:

@@ -79,8 +79,8 @@ class _Channel:
     offset: float = 0.0
     typical_dt: float = 0.0
     dropping_until: float | None = None
-    recent: deque = field(default_factory=deque)
-    recent_set: set = field(default_factory=set)
+    recent: deque = field(default_factory=deque)   # the last messages, for duplicates
+    recent_t_max: float = -math.inf                # the newest time among them
     held: list = field(default_factory=list)  # (stream, msg, t_recv) ahead by > max_lead
     implausible: int = 0
 
@@ -123,7 +123,7 @@ class Timeline:
         key = (stream, msg.device or msg.agent)
         ch = self._channels.get(key)
         if ch is None:
-            ch = self._channels[key] = _Channel()
+            ch = self._channels[key] = _Channel(recent=deque(maxlen=cfg.duplicate_memory))
         if t_recv is None:
             t_recv = getattr(msg, "t_recv", None)
         if not math.isfinite(msg.t):
@@ -133,14 +133,11 @@ class Timeline:
         if ch.offset:
             msg = msg.shifted(ch.offset)
         if cfg.duplicates == "drop":
-            digest = msg.dedup_key()
-            if digest in ch.recent_set:
+            if msg.t <= ch.recent_t_max and self._is_duplicate(ch, msg):
                 self._count("duplicates")
                 return
-            ch.recent.append(digest)
-            ch.recent_set.add(digest)
-            if len(ch.recent) > cfg.duplicate_memory:
-                ch.recent_set.discard(ch.recent.popleft())
+            ch.recent.append(msg)
+            ch.recent_t_max = max(ch.recent_t_max, msg.t)
 
         if ch.dropping_until is not None:
             if msg.t <= ch.dropping_until:
@@ -203,6 +200,19 @@ class Timeline:
         heapq.heappush(self._heap, _Entry(msg.t, self._seq, stream, msg))
         self._seq += 1
 
+    @staticmethod
+    def _is_duplicate(ch: _Channel, msg: Message) -> bool:
+        """Whether one of the channel's remembered messages equals ``msg`` exactly.
+
+        Only called for a message no newer than the newest remembered one: a duplicate
+        has the time of the one it repeats, so a channel whose times go forward (every
+        live link, every steady stream) never computes a key at all.
+        """
+        same_time = [m for m in ch.recent if m.t == msg.t]
+        if not same_time:
+            return False
+        key = msg.dedup_key()
+        return any(m.dedup_key() == key for m in same_time)
     # -- the lead rule ---------------------------------------------------------------
     def _start(self) -> None:
         """Set the reference time from the first messages: their median, so that one

@@ -40,7 +40,17 @@ def print_warnings(spec) -> None:
         print(f"warning: {w}", file=sys.stderr)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _named_command(argv: list[str]) -> str | None:
+    """The command module ``argv`` names (its first word that is not an option), if any."""
+    words = [a for a in argv if not a.startswith("-")]
+    if not words or any(a in ("-h", "--help") for a in argv[:argv.index(words[0])]):
+        return None
+    return words[0].replace("-", "_") if words[0].replace("-", "_") in _command_modules() else None
+
+
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or of only the command ``argv`` names (each command
+    module imports what it needs, so ``firenav run`` does not pay for ``firenav play``)."""
     parser = argparse.ArgumentParser(
         prog="firenav", description="Locate firefighters inside buildings: run, check "
         "and evaluate sensor-fusion pipelines.", epilog=EXIT_CODES,
@@ -48,13 +58,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output (-vv for debug)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in _command_modules():
+    named = None if argv is None else _named_command(argv)
+    for name in [named] if named else _command_modules():
         importlib.import_module(f"{__name__}.{name}").add_parser(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     logging.basicConfig(level=(logging.WARNING, logging.INFO, logging.DEBUG)[min(args.verbose, 2)],
                         format="%(levelname)s %(name)s: %(message)s")

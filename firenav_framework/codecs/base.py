@@ -42,7 +42,8 @@ from typing import Any, ClassVar, NamedTuple
 from ..contract.params import Params
 from ..messages import RawFrame
 
-__all__ = ["Codec", "FrameError", "EncodedFrame", "to_raw_frames", "LINE_TRANSPORTS"]
+__all__ = ["Codec", "FrameError", "EncodedFrame", "Decoded", "to_raw_frames",
+           "LINE_TRANSPORTS"]
 
 #: The link transports a ``"lines"`` codec serves.
 LINE_TRANSPORTS = ("serial", "udp")
@@ -65,6 +66,18 @@ class EncodedFrame(NamedTuple):
     t: float
     channel: int | str
     data: bytes
+
+
+class Decoded(NamedTuple):
+    """What :meth:`Codec.decode_batch` made of a batch of frames: the ``records`` they
+    completed, in frame order; ``origin``, the index in the batch of the frame that
+    completed each record; the ``problems`` (index of the frame, its
+    :class:`FrameError`); and how many frames were ``ignored`` (not of this protocol)."""
+
+    records: Sequence[Any]
+    origin: Sequence[int]
+    problems: list[tuple[int, FrameError]]
+    ignored: int
 
 
 def to_raw_frames(frames: Iterable[EncodedFrame], *, transport: str, device: str,
@@ -116,6 +129,30 @@ class Codec(ABC):
 
         Raises :class:`FrameError` for a frame of this protocol that cannot be decoded.
         """
+
+    def decode_batch(self, frames: Sequence[RawFrame]) -> Decoded:
+        """:meth:`decode` of each of ``frames`` in turn, as one :class:`Decoded`.
+
+        A codec whose protocol decodes faster many frames at a time (fixed layouts read
+        with numpy) overrides this; the records and problems must be those
+        :meth:`decode` gives frame by frame.
+        """
+        records: list[Any] = []
+        origin: list[int] = []
+        problems: list[tuple[int, FrameError]] = []
+        ignored = 0
+        for i, frame in enumerate(frames):
+            try:
+                out = self.decode(frame)
+            except FrameError as exc:
+                problems.append((i, exc))
+                continue
+            if out is None:
+                ignored += 1
+            else:
+                records += out
+                origin += [i] * len(out)
+        return Decoded(records, origin, problems, ignored)
 
     def finish(self) -> None:
         """End of input: count what is still incomplete (default: nothing)."""

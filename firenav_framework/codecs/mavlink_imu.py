@@ -31,8 +31,9 @@ import numpy as np
 
 from ..contract.params import Params, param
 from ..messages import IMU_FLAG_BITS, ImuBlock, RawFrame
-from .base import Codec, EncodedFrame, FrameError
-from .imu_sample import ImuSample, check_device_times
+from .base import Codec, Decoded, EncodedFrame, FrameError
+from .imu_sample import ImuSample, ImuSamples, check_device_times
+from .mavlink_payloads import HIGHRES_ID, PACKET_PROBLEMS, unpack_highres
 
 __all__ = ["MavlinkImuCodec", "MAVLINK_IMU_IDS", "G0"]
 
@@ -99,6 +100,7 @@ class MavlinkImuCodec(Codec):
         self.ids = {MAVLINK_IMU_IDS[n] for n in names}
         self._parser = _dialect().MAVLink(None)
         self._senders: dict[tuple[int, int, int], Any] = {}  # address -> MAVLink packer
+        self._device_names: dict[int, str] = {}  # sysid << 16 | compid << 8 | id -> name
 
     def channels(self, address: str) -> Sequence[int]:
         send = self.options.send
@@ -123,6 +125,11 @@ class MavlinkImuCodec(Codec):
     def decode(self, frame: RawFrame) -> list[ImuSample] | None:
         if frame.channel not in self.ids:
             return None
+        if frame.channel == HIGHRES_ID:
+            records, _, problems, _ = self.decode_batch([frame])
+            if problems:
+                raise problems[0][1]
+            return list(records)
         try:
             msg = self._parser.decode(bytearray(frame.data))
         except Exception as exc:  # pymavlink raises MAVError, struct.error, IndexError ...
@@ -157,6 +164,55 @@ class MavlinkImuCodec(Codec):
         return [ImuSample(f"{source}/imu{msg.id}", msg.time_usec * 1e-6,
                           (msg.xacc * sa, msg.yacc * sa, msg.zacc * sa),
                           (msg.xgyro * sg, msg.ygyro * sg, msg.zgyro * sg), mag, flags)]
+
+    def decode_batch(self, frames: Sequence[RawFrame]) -> Decoded:
+        """HIGHRES_IMU packets checked and read many at once with numpy (the same
+        records and problems as :meth:`decode`); the other IMU messages frame by frame."""
+        highres: list[int] = []
+        others: list[int] = []
+        ignored = 0
+        for i, frame in enumerate(frames):
+            if frame.channel == HIGHRES_ID and HIGHRES_ID in self.ids:
+                highres.append(i)
+            elif frame.channel in self.ids:
+                others.append(i)
+            else:
+                ignored += 1
+        problems: list[tuple[int, FrameError]] = []
+        parts = []
+        if highres:
+            parts.append(self._highres([frames[i] for i in highres], highres, problems))
+        if others:
+            rest = super().decode_batch([frames[i] for i in others])
+            problems += [(others[i], exc) for i, exc in rest.problems]
+            problems.sort(key=lambda p: p[0])
+            parts.append((np.array([others[i] for i in rest.origin], np.int64),
+                          ImuSamples.from_records(rest.records)))
+        records, origin = ImuSamples.merge(parts)
+        return Decoded(records, origin, problems, ignored)
+
+    def _highres(self, frames: list[RawFrame], index: list[int],
+                 problems: list[tuple[int, FrameError]]) -> tuple[np.ndarray, ImuSamples]:
+        rows = unpack_highres([f.data for f in frames])
+        status = rows[:, 13]
+        if status.any():
+            for k in np.flatnonzero(status).tolist():
+                problems.append((index[k], FrameError("bad_frames", f"MAVLink msgid "
+                                f"{HIGHRES_ID}: {PACKET_PROBLEMS[int(status[k])]}")))
+            good = status == 0
+            rows, index = rows[good], np.asarray(index)[good]
+        names = self._device_names
+        device = [names.get(k) or names.setdefault(k, f"sys{k >> 16}/comp{(k >> 8) & 0xFF}"
+                                                      f"/imu{k & 0xFF}")
+                  for k in rows[:, 11].astype(np.int64).tolist()]
+        mag = None
+        has_mag = rows[:, 10].astype(np.int64) & _HIGHRES_MAG == _HIGHRES_MAG
+        if has_mag.any():
+            mag = rows[:, 7:10] * GAUSS_UT
+            mag[~has_mag] = np.nan
+        batch = ImuSamples(device, rows[:, 0], rows[:, 1:4], rows[:, 4:7], mag,
+                           np.zeros(len(rows), np.uint8))
+        return np.asarray(index), batch
 
     # -- encoding ----------------------------------------------------------------------
     def encode(self, block: ImuBlock, *, address: str = "") -> list[EncodedFrame]:

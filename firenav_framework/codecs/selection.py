@@ -90,18 +90,37 @@ class TransportCodecs:
 
     def __init__(self, selection: CodecSelection, *, count: Callable[[str, int], None],
                  resolve: Callable[[str], Path] = Path):
-        made: dict[str, Codec] = {}
-        for name in dict.fromkeys(selection.codecs.values()):
-            made[name] = get_codec(name)(selection.codec_options.get(name), count=count,
-                                         resolve=resolve)
-        self._by_transport = {t: made[name] for t, name in selection.codecs.items()}
-        self.codecs = list(made.values())
+        self.selection = selection
+        self._count, self._resolve = count, resolve
+        self._made: dict[str, Codec] = {}
+        self._by_transport: dict[str, Codec | None] = {}
+        for name in selection.codec_options:   # configured: a bad file fails at set-up
+            self._make(name)
+
+    def _make(self, name: str) -> Codec:
+        codec = self._made.get(name)
+        if codec is None:
+            codec = self._made[name] = get_codec(name)(
+                self.selection.codec_options.get(name), count=self._count,
+                resolve=self._resolve)
+        return codec
 
     def get(self, transport: str) -> Codec | None:
-        """The codec of frames of ``transport`` (None: this sensor does not decode them)."""
-        return self._by_transport.get(transport)
+        """The codec of frames of ``transport`` (None: this sensor does not decode them).
+        A codec without options is made at the first frame of its transport, so a
+        pipeline of recorded blocks never loads a DBC or a MAVLink dialect."""
+        codec = self._by_transport.get(transport, False)
+        if codec is False:
+            name = self.selection.codecs.get(transport)
+            codec = self._by_transport[transport] = None if name is None else self._make(name)
+        return codec
+
+    @property
+    def codecs(self) -> list[Codec]:
+        """The codecs made so far."""
+        return list(self._made.values())
 
     def finish(self) -> None:
-        """End of input for every codec (each counts what is still incomplete)."""
-        for codec in self.codecs:
+        """End of input for every codec made (each counts what is still incomplete)."""
+        for codec in self._made.values():
             codec.finish()

@@ -9,13 +9,14 @@ counted as decode errors and recorded, never passed on.
 """
 from __future__ import annotations
 
-from typing import Any
-
-import can
+from typing import TYPE_CHECKING, Any
 
 from ..messages import RawFrame
 from . import clock
 from .links import Link, LinkLost, enlarge_receive_buffer
+
+if TYPE_CHECKING:
+    import can
 
 #: At most this many frames are taken per read, so silence checks and flushes run.
 MAX_BATCH = 2000
@@ -51,6 +52,8 @@ class CanLink(Link):
         self.bus: can.BusABC | None = None
 
     def open(self) -> None:
+        import can   # python-can is imported by the links that use it, not by every run
+
         kw = dict(self.options)
         if self.bitrate is not None:
             kw["bitrate"] = self.bitrate
@@ -60,6 +63,8 @@ class CanLink(Link):
             enlarge_receive_buffer(sock)
 
     def read(self, timeout: float) -> list[tuple[int, Any]]:
+        import can
+
         if self.bus is None:
             raise LinkLost("CAN bus is not open")
         try:

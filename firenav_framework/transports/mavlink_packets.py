@@ -23,24 +23,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
 
+from ..codecs.mavlink_payloads import MAGIC_V1, MAGIC_V2, SIGNATURE_LEN, crc_ok
 from ..messages import RawFrame
 from . import clock
-
-MAGIC_V1, MAGIC_V2 = 0xFE, 0xFD
-SIGNATURE_LEN = 13
-
-
-@njit(cache=True)
-def _crc_ok(buf: np.ndarray, start: int, end: int, extra: int, expected: int) -> bool:
-    """CRC-16/MCRF4XX of ``buf[start:end]`` then ``extra`` equals ``expected``."""
-    crc = 0xFFFF
-    for i in range(start, end + 1):
-        b = (buf[i] if i < end else extra) ^ (crc & 0xFF)
-        b = (b ^ (b << 4)) & 0xFF
-        crc = ((crc >> 8) ^ (b << 8) ^ (b << 3) ^ (b >> 4)) & 0xFFFF
-    return crc == expected
 
 
 @dataclass(frozen=True)
@@ -114,7 +100,7 @@ def _checksum_ok(arr: np.ndarray, i: int, pkt: bytes, tables: Dialect) -> bool:
     v2 = pkt[0] == MAGIC_V2
     body = (10 if v2 else 6) + pkt[1]
     expected = pkt[body] | (pkt[body + 1] << 8)
-    return bool(_crc_ok(arr, i + 1, i + body, extra, expected))
+    return bool(crc_ok(arr, i + 1, i + body, extra, expected))
 
 
 @dataclass

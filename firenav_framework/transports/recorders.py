@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import copy
 import datetime as _dt
+import functools
 import os
 import re
 import struct
@@ -32,9 +33,10 @@ import threading
 import time
 from abc import ABC, abstractmethod
 from pathlib import Path
-from typing import IO, Any, Callable
+from typing import TYPE_CHECKING, IO, Any, Callable
 
-import can
+if TYPE_CHECKING:
+    import can
 
 _INDEX = re.compile(r"-(\d{4,})-")
 #: The file size is also checked (after a flush) every this many frames, so a burst
@@ -181,8 +183,10 @@ class CanRecorder(RotatingRecorder):
         super().__init__(folder, prefix, **kw)
 
     def _open(self, path: Path) -> None:
+        import can   # python-can is imported by the recorders that use it
+
         if self.suffix == ".asc":
-            self._writer = _PaddedAscWriter(str(path))
+            self._writer = _padded_asc_writer()(str(path))
         else:
             self._writer = can.Logger(str(path))
 
@@ -222,6 +226,8 @@ def _numbered_channel(msg: can.Message) -> can.Message:
     takes from the trailing digits of the channel name ("can1" -> 1). A device named
     with a large number ("test-8a2f...932916") would make BLF fail, so such a message is
     written on the writer's default channel instead (the name is lost either way)."""
+    import can
+
     number = can.util.channel2int(msg.channel)
     if number is None or 0 <= number <= _MAX_CHANNEL:
         return msg
@@ -230,16 +236,21 @@ def _numbered_channel(msg: can.Message) -> can.Message:
     return out
 
 
-class _PaddedAscWriter(can.ASCWriter):
+@functools.lru_cache(maxsize=1)
+def _padded_asc_writer() -> type:
     """python-can's ASC writer with the milliseconds of its dates written as 3 digits.
 
     python-can 4.6 writes 38 ms as ``:11.38`` which every reader (its own included)
     parses as 380 ms, so a replay would start up to a second late. CANoe, too, expects
     three digits.
     """
+    import can
 
-    def _format_header_datetime(self, dt: _dt.datetime) -> str:
-        return dt.strftime(self.FORMAT_DATE.format(f"{dt.microsecond // 1000:03d}"))
+    class PaddedAscWriter(can.ASCWriter):
+        def _format_header_datetime(self, dt: _dt.datetime) -> str:
+            return dt.strftime(self.FORMAT_DATE.format(f"{dt.microsecond // 1000:03d}"))
+
+    return PaddedAscWriter
 
 
 #: python-can log formats a :class:`CanRecorder` can write (and ``can_log`` reads).

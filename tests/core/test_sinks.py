@@ -50,3 +50,15 @@ def test_diagnostics_log_writes_one_json_object_per_line(tmp_path):
     assert entry == {"t": 1.5, "when": "t=1.5 s", "stream": "pf.diagnostics",
                      "component": "pf", "agent": "ff2", "level": "warning",
                      "code": "map_error", "active": True, "text": "estimate not trustworthy"}
+
+
+def test_track_plot_draws_the_same_png_in_a_renderer_process(tmp_path):
+    from firenav_framework.sinks.track_plot import background_rendering
+
+    building = load_building(bundled_plan("three_storey"))
+    msgs = [("pf.pose", pose(t, 0.0 if t < 5 else 3.5)) for t in range(10)]
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    run_component(TrackPlotSink, {}, msgs, building=building, output_dir=tmp_path / "a")
+    with background_rendering():
+        run_component(TrackPlotSink, {}, msgs, building=building, output_dir=tmp_path / "b")
+    assert (tmp_path / "b" / "tracks.png").read_bytes() == (tmp_path / "a" / "tracks.png").read_bytes()

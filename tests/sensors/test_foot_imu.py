@@ -318,7 +318,10 @@ def test_can_frames_become_flu_blocks_equal_to_the_samples_within_quantisation()
                               "frames": {"agent_map": {"can0/node2": "ff3/left_foot"}}}, receive)
     assert counts == {} and diags == []
     assert {(b.agent, b.device) for b in out} == {("ff3", "ff3/left_foot")}
-    assert all(b.time[-1] - b.time[0] < 0.1 for b in out)
+    # frames are decoded in batches of < block_s (0.1 s) of frame time: a block's sample
+    # times span that, plus the receive jitter (4 ms) and a sample begun in the batch before
+    spans = [b.time[-1] - b.time[0] for b in out]
+    assert max(spans) < 0.1 + 0.004 + 0.005 and len(out) >= len(t) * 0.005 / 0.1
     tk, a, g, _ = joined(out)
     offset = receive[2].t - t[0]   # anchored by the frame that completes the first sample
     np.testing.assert_allclose(tk, t + offset, atol=1e-6)  # device clock, not the jitter
@@ -478,6 +481,54 @@ def test_device_clock_keeps_device_time_and_reanchors_only_on_real_jumps():
     t, resynced = clock.to_pipeline(50.005, 8.52)
     assert resynced and t == pytest.approx(8.52)
     assert clock.to_pipeline(float("nan"), 8.53)[1] is False
+
+
+def test_degraded_mode_decodes_a_firefighter_in_longer_blocks_and_loses_nothing():
+    t, accel, gyro = motion(800, t0=50.0)
+    frames = to_raw_frames(encode_mavlink_imu(t, accel, gyro), transport="mavlink",
+                           device="sys1/comp1")
+    comp, rec, _ = make_component(FootImuSensor, {"axes": FRD, "frames": {"block_s": 0.05}})
+    for f in frames[:200]:
+        comp.handle("raw", f)
+    assert comp.degrade("ff2", 1) is None            # not a firefighter of this sensor
+    assert comp.degrade("ff1", 1) == "frames decoded in blocks of 0.2 s"
+    for f in frames[200:600]:
+        comp.handle("raw", f)
+    assert comp.degrade("ff1", 0) == "frames decoded in blocks of 0.05 s"
+    for f in frames[600:]:
+        comp.handle("raw", f)
+    comp.finish()
+    blocks = rec.on("imu")
+    sizes = [len(b) for b in blocks]
+    normal = {10, 11}   # 0.05 s of 200 Hz frames, give or take the rounding of frame times
+    assert set(sizes[:15]) <= normal and set(sizes[-6:-1]) <= normal
+    assert sum(s in (40, 41) for s in sizes) >= 8   # 400 frames in blocks of 0.2 s
+    np.testing.assert_allclose(np.concatenate([b.time for b in blocks]), t, atol=1e-6)  # all
+
+
+def test_clean_blocks_take_the_short_path_with_the_result_of_every_rule():
+    from firenav_plugins.sensors.foot_imu.screening import (DeviceHistory, ScreeningLimits,
+                                                             apply_rules, screen)
+    rng = np.random.default_rng(7)
+    limits = ScreeningLimits(accel_saturation=150.0)
+    fast, full = DeviceHistory(), DeviceHistory()
+    t0 = 0.0
+    for k in range(300):
+        n = int(rng.integers(1, 25))
+        t = t0 + np.cumsum(rng.uniform(0.001, 0.06, n))   # some steps are gaps
+        t0 = t[-1]
+        accel = rng.normal(0, 60, (n, 3))                   # some saturated, rarely out of range
+        gyro = rng.normal(0, 3, (n, 3))
+        if k % 7 == 0:
+            t[n // 2] = t[max(n // 2 - 1, 0)]                # a repeated time
+        flags = (rng.random(n) < 0.05).astype(np.uint8) * IMU_FLAG_BITS["saturated"]
+        a, b = screen(t, accel, gyro, limits, fast, flags), apply_rules(t, accel, gyro, limits,
+                                                                        full, flags)
+        np.testing.assert_array_equal(a.keep, b.keep)
+        np.testing.assert_array_equal(a.flags, b.flags)
+        assert a.counts == b.counts and a.longest_gap == b.longest_gap
+        np.testing.assert_array_equal(fast.times, full.times)
+        np.testing.assert_array_equal(fast.values, full.values)
 
 
 @pytest.mark.parametrize("declared, device_up, suggested", [

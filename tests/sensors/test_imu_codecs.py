@@ -313,6 +313,57 @@ def test_mavlink_encoder_refuses_what_it_cannot_send():
         encode_mav(*one, address="node1")
 
 
+def pymavlink_record(data: bytes):
+    """The reference reading of one HIGHRES_IMU packet: pymavlink's own parser."""
+    from pymavlink.dialects.v20 import common as v2
+
+    m = v2.MAVLink(None).decode(bytearray(data))
+    mag = ((m.xmag * 100, m.ymag * 100, m.zmag * 100)
+           if m.fields_updated & 0x1C0 == 0x1C0 else None)
+    return (f"sys{m.get_srcSystem()}/comp{m.get_srcComponent()}/imu{m.id}",
+            m.time_usec * 1e-6, (m.xacc, m.yacc, m.zacc), (m.xgyro, m.ygyro, m.zgyro), mag)
+
+
+def test_highres_batches_read_what_pymavlink_reads_and_keep_frame_order():
+    from pymavlink.dialects.v10 import common as v1
+
+    t, accel, gyro, mag = samples(12)
+    left = mav_frames(encode_mav(t[:6], accel[:6], gyro[:6], mag[:6], "sys3/comp1/imu0"))
+    right = mav_frames(encode_mav(t[6:], accel[6:], gyro[6:], None, "sys3/comp1/imu1"))
+    scaled = mav_frames(encode_mav(t[:2], accel[:2] / 10, gyro[:2], None, "sys3/comp1/imu0",
+                                   send="SCALED_IMU"))
+    m1 = v1.MAVLink(None, srcSystem=4, srcComponent=2)
+    old = RawFrame(t=0, transport="mavlink", channel=105, data=bytes(
+        v1.MAVLink_highres_imu_message(7_000_000, 0.5, 0, -9.8, 0, 0, 0.1, 0, 0, 0, 0, 0, 0,
+                                       0, 0x3F).pack(m1)))
+    bad = RawFrame(t=0, transport="mavlink", channel=105, data=corrupt_crc(left[1].data))
+    heartbeat = RawFrame(t=0, transport="mavlink", channel=0, data=b"\xfd")
+    frames = [left[0], right[0], scaled[0], bad, old, heartbeat, *left[2:], scaled[1],
+              *right[1:]]
+    codec = MavlinkImuCodec()
+    decoded = codec.decode_batch(frames)
+    expected = [pymavlink_record(f.data) for f in frames if f not in (bad, heartbeat)
+                and f.channel == 105]
+    got = [(s.device, s.t, s.accel, s.gyro, s.mag)
+           for s, i in zip(decoded.records, decoded.origin) if frames[i].channel == 105]
+    assert [g[0] for g in got] == [e[0] for e in expected]
+    for g, e in zip(got, expected):
+        assert g[1] == e[1] and g[2] == e[2] and g[3] == e[3]
+        assert (g[4] is None) == (e[4] is None)
+        if e[4] is not None:
+            assert g[4] == pytest.approx(e[4], rel=1e-12)
+    # records in frame order, each naming the frame that completed it
+    assert [frames[i].channel for i in decoded.origin] == [
+        f.channel for f in frames if f not in (bad, heartbeat)]
+    assert [i for i, _ in decoded.problems] == [3] and decoded.ignored == 1
+    assert "bad CRC" in str(decoded.problems[0][1])
+    # frame by frame, the same records and the same problem
+    one_by_one = [s for f in frames if f is not bad for s in (codec.decode(f) or [])]
+    assert [(s.device, s.t) for s in one_by_one] == [(s.device, s.t) for s in decoded.records]
+    with pytest.raises(FrameError, match="bad CRC"):
+        codec.decode(bad)
+
+
 def test_mavlink_packet_sequence_continues_per_address():
     codec = MavlinkImuCodec()
     t, accel, gyro, _ = samples(10)

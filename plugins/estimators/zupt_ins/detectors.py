@@ -267,7 +267,7 @@ def _emit(ring: np.ndarray, e: int, zv: bool, k: int, out_t: np.ndarray, out_acc
     out_stat[k, 2] = ring[r, R_MODE]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # releases the GIL: firefighters run on worker threads
 def detect(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, ring: np.ndarray,
            ist: np.ndarray, dq: np.ndarray, cfg: DetectorConfig, out_t: np.ndarray, out_acc: np.ndarray,
            out_gyro: np.ndarray, out_zv: np.ndarray, out_stat: np.ndarray) -> int:
@@ -306,7 +306,7 @@ def detect(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, ring: np.ndarray,
     return k
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # releases the GIL: firefighters run on worker threads
 def flush(ring: np.ndarray, ist: np.ndarray, dq: np.ndarray, cfg: DetectorConfig,
           out_t: np.ndarray,
           out_acc: np.ndarray, out_gyro: np.ndarray, out_zv: np.ndarray,

@@ -414,7 +414,7 @@ def _level_floor(x: np.ndarray, P: np.ndarray, n: int, ist: np.ndarray, fs: np.n
     P[2, 2] = (1.0 - k) * (1.0 - k) * pzz + k * k * var
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # releases the GIL: firefighters run on worker threads
 def run_filter(t: np.ndarray, acc: np.ndarray, gyro: np.ndarray, zv: np.ndarray,
                x: np.ndarray, P: np.ndarray, ist: np.ndarray, fs: np.ndarray,
                cfg: FilterConfig, out: np.ndarray, events: np.ndarray) -> int:

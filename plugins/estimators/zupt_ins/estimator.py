@@ -102,6 +102,7 @@ class ZuptInsEstimator(Estimator):
     inputs = (ImuBlock,)
     outputs = {"odometry": Odometry, "pose": PoseEstimate, "state": PoseEstimate}
     Params = ZuptInsParams
+    agents_independent = True   # all state per firefighter: may run on worker threads
 
     def __init__(self, params: ZuptInsParams, ctx):
         super().__init__(params, ctx)

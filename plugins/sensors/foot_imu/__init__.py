@@ -8,9 +8,9 @@ RAW_IMU, text lines over serial or UDP; see ``docs/formats/codecs.md``). For eac
 device the sensor
 
 1. converts units to SI (``units`` for blocks; codecs decode to SI) and, for frames,
-   maps the device id to an output stream (:mod:`.routing`), the device clock onto the
-   pipeline clock (:mod:`.clock`) and collects samples into blocks of
-   ``frames.block_s`` (:mod:`.samples`);
+   collects each link device's frames for ``frames.block_s`` and decodes them in one
+   batch (:mod:`.samples`), maps the device id to an output stream (:mod:`.routing`)
+   and the device clock onto the pipeline clock (:mod:`.clock`);
 2. screens the samples (:mod:`.screening`);
 3. applies the device's calibration and rotates the axes to FLU (:mod:`.calibration`);
 4. publishes the block on ``imu`` and, once per device, checks that gravity points up

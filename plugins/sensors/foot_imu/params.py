@@ -43,8 +43,9 @@ class Frames(CodecSelection):
                                       "'agent/device'; first match wins")
     default_agent: str = param("ff1", min_length=1, description="agent of frame devices "
                                "that neither agent_map nor the frame's source names")
-    block_s: float = param(0.1, unit="s", gt=0, le=10, description="length of the blocks "
-                           "samples decoded from frames are collected into")
+    block_s: float = param(0.1, unit="s", gt=0, le=10, description="frames of one link "
+                           "device are collected this long (frame time) and decoded "
+                           "together into one block")
     clock_resync: float = param(1.0, unit="s", gt=0, description="a device clock step "
                                 "back (or leap ahead of the frame times) larger than this "
                                 "re-anchors it to the frame times")

@@ -1,18 +1,18 @@
-"""One device's samples as arrays, collecting decoded samples into them, and holding back
-a last sample that leaps ahead."""
+"""One device's samples as arrays, the frames of one link device collected for decoding
+in batches, and holding back a last sample that leaps ahead."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from firenav_framework.codecs.imu_sample import ImuSample
+from firenav_framework.messages import RawFrame
 
-__all__ = ["Samples", "SampleBuffer", "hold_leap", "MAX_BUFFER"]
+__all__ = ["Samples", "FrameBatch", "hold_leap", "MAX_BUFFER"]
 
-#: Samples collected from frames before a block is forced out.
+#: Frames collected before a batch is decoded regardless of their times.
 MAX_BUFFER = 4096
-_NO_MAG = (np.nan,) * 3
 
 
 @dataclass(frozen=True)
@@ -44,40 +44,37 @@ class Samples:
                        np.concatenate((self.flags, later.flags)))
 
 
-class SampleBuffer:
-    """Collects one device's decoded samples into blocks of about ``block_s`` seconds.
+class FrameBatch:
+    """Frames of one link device, waiting to be decoded together.
 
-    :meth:`add` returns the samples collected so far once a sample lies ``block_s`` or
-    more from the first finite time collected (or :data:`MAX_BUFFER` samples wait),
-    before keeping the new one.
+    :meth:`add` returns the frames collected so far once a frame arrives ``block_s``
+    or more (frame time) after the first one collected, or :data:`MAX_BUFFER` frames
+    wait, before keeping the new one: a block is out as soon as it is complete, and a
+    backlog that arrives at once (a link that stalled) is decoded as one batch.
     """
 
     def __init__(self, block_s: float):
         self.block_s = block_s
-        self._rows: list[tuple] = []
-        self._t0: float | None = None   # first finite sample time collected
+        self.frames: list[RawFrame] = []
+        self.agents: set[str] = set()   # firefighters whose samples these frames carried
+        self._t0 = math.nan   # frame time of the first frame collected
 
-    def add(self, t: float, sample: ImuSample) -> Samples | None:
-        """Keep ``sample`` at pipeline time ``t`` [s]; the previous block if it is complete."""
+    def add(self, frame: RawFrame) -> list[RawFrame] | None:
         done = None
-        if (self._t0 is not None and abs(t - self._t0) >= self.block_s
-                or len(self._rows) >= MAX_BUFFER):
+        if self.frames and (abs(frame.t - self._t0) >= self.block_s
+                            or len(self.frames) >= MAX_BUFFER):
             done = self.take()
-        if self._t0 is None and np.isfinite(t):
-            self._t0 = t
-        self._rows.append((t, *sample.accel, *sample.gyro, *(sample.mag or _NO_MAG),
-                           sample.flags))
+        if not self.frames or not math.isfinite(self._t0):
+            self._t0 = frame.t
+        self.frames.append(frame)
         return done
 
-    def take(self) -> Samples | None:
-        """Everything collected (None if nothing), emptying the buffer."""
-        if not self._rows:
+    def take(self) -> list[RawFrame] | None:
+        """Everything collected (None if nothing), emptying the batch."""
+        if not self.frames:
             return None
-        rows = np.array(self._rows, dtype=float)
-        self._rows, self._t0 = [], None
-        mag = rows[:, 7:10]
-        return Samples(rows[:, 0], rows[:, 1:4], rows[:, 4:7],
-                       None if np.isnan(mag).all() else mag, rows[:, 10].astype(np.uint8))
+        done, self.frames, self._t0 = self.frames, [], math.nan
+        return done
 
 
 def hold_leap(samples: Samples, last_t: float, gap: float) -> tuple[Samples, Samples | None]:

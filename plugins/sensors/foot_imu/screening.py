@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 from pydantic import model_validator
 
 from firenav_framework.contract import Params, param
@@ -103,6 +104,19 @@ def screen(time: np.ndarray, accel: np.ndarray, gyro: np.ndarray, limits: Screen
     """
     n = len(time)
     values = np.hstack((accel, gyro))
+    if _clean(time, values, history.last_t, limits.accel_range, limits.gyro_range,
+              limits.gap, limits.accel_saturation or np.inf, limits.gyro_saturation or np.inf):
+        return _all_kept(time, values, history, flags)
+    return apply_rules(time, accel, gyro, limits, history, flags)
+
+
+def apply_rules(time: np.ndarray, accel: np.ndarray, gyro: np.ndarray,
+                limits: ScreeningLimits, history: DeviceHistory,
+                flags: np.ndarray | None = None) -> Screening:
+    """Every rule of the module docstring, as arrays (:func:`screen` skips this for
+    samples that none of them concerns, the common case)."""
+    n = len(time)
+    values = np.hstack((accel, gyro))
     finite = np.isfinite(time) & np.isfinite(values).all(axis=1)
     with np.errstate(invalid="ignore"):
         in_range = ((np.abs(accel) <= limits.accel_range).all(axis=1)
@@ -158,3 +172,37 @@ def screen(time: np.ndarray, accel: np.ndarray, gyro: np.ndarray, limits: Screen
     }
     return Screening(keep=keep, flags=out_flags, counts=counts,
                      longest_gap=float(dt[gap_before].max()) if gap_before.any() else 0.0)
+
+
+@njit(cache=True, nogil=True)
+def _clean(time: np.ndarray, values: np.ndarray, last_t: float, accel_range: float,
+           gyro_range: float, gap: float, accel_sat: float, gyro_sat: float) -> bool:
+    """Whether no rule applies to any sample: all finite, within range and below full
+    scale, times strictly increasing from ``last_t`` with no step longer than ``gap``
+    (the first sample of a device, after ``last_t = -inf``, follows nothing)."""
+    prev = last_t
+    for i in range(len(time)):
+        t = time[i]
+        if not np.isfinite(t) or not t > prev or (np.isfinite(prev) and t - prev > gap):
+            return False
+        for j in range(6):
+            v = values[i, j]
+            if not np.isfinite(v) or abs(v) > (accel_range if j < 3 else gyro_range) \
+                    or abs(v) >= (accel_sat if j < 3 else gyro_sat):
+                return False
+        prev = t
+    return True
+
+
+def _all_kept(time: np.ndarray, values: np.ndarray, history: DeviceHistory,
+              flags: np.ndarray | None) -> Screening:
+    """The screening of samples :func:`_clean` passed: all kept, nothing counted."""
+    n = len(time)
+    if n:
+        history.times = np.concatenate((history.times, time))[-MEMORY:]
+        history.values = np.concatenate((history.values, values))[-MEMORY:]
+    out_flags = np.zeros(n, np.uint8) if flags is None else np.array(flags, np.uint8)
+    counts = dict.fromkeys(COUNTS, 0)
+    if flags is not None and out_flags.any():   # flagged saturated by the device or codec
+        counts["saturated"] = int(np.count_nonzero(out_flags & SATURATED))
+    return Screening(keep=np.ones(n, bool), flags=out_flags, counts=counts, longest_gap=0.0)

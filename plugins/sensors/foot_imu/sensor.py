@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from firenav_framework.codecs import FrameError
-from firenav_framework.codecs.imu_sample import ImuSample
+from firenav_framework.codecs import Codec
+from firenav_framework.codecs.imu_sample import ImuSamples
 from firenav_framework.codecs.selection import TransportCodecs
 from firenav_framework.contract import Context, Sensor
 from firenav_framework.messages import ImuBlock, RawFrame
@@ -13,11 +13,14 @@ from .calibration import CalibrationFile, LinearCorrection, axes_matrix, load_ca
 from .params import FootImuParams
 from .problems import frame_problem, screening_problems
 from .routing import DeviceRoutes
-from .samples import SampleBuffer, Samples
+from .samples import FrameBatch, Samples
 from .screening import Screening
 from .streams import DeviceStream
 
-__all__ = ["FootImuSensor"]
+__all__ = ["FootImuSensor", "DEGRADED_BLOCKS"]
+
+#: How many times longer frame batches are in the cheaper mode of :meth:`FootImuSensor.degrade`.
+DEGRADED_BLOCKS = 4
 
 
 class FootImuSensor(Sensor):
@@ -38,6 +41,7 @@ class FootImuSensor(Sensor):
         self._codecs = TransportCodecs(params.frames, count=self._codec_count,
                                        resolve=ctx.resolve)
         self._streams: dict[tuple[str, str], DeviceStream] = {}
+        self._batches: dict[tuple[str, str], FrameBatch] = {}  # (transport, link device)
         self._routes = DeviceRoutes(params.frames, ctx, self._stream)
         self._t = 0.0  # newest input time, for reports without one of their own
 
@@ -69,41 +73,86 @@ class FootImuSensor(Sensor):
         if codec is None:
             self.ctx.count("frames_ignored")
             return
-        try:
-            samples: list[ImuSample] | None = codec.decode(frame)
-        except FrameError as exc:
+        key = (frame.transport, frame.device)
+        batch = self._batches.get(key)
+        if batch is None:
+            batch = self._batches[key] = FrameBatch(self.params.frames.block_s)
+        done = batch.add(frame)
+        if done is not None:
+            self._decode(codec, done, batch)
+
+    def _decode(self, codec: Codec, frames: list[RawFrame], batch: FrameBatch | None = None,
+                skip_agent: str | None = None) -> None:
+        """Decode one link device's batch of frames and condition each device's samples
+        (except those of ``skip_agent``, being reset)."""
+        decoded = codec.decode_batch(frames)
+        if decoded.ignored:
+            self.ctx.count("frames_ignored", decoded.ignored)
+        for i, exc in decoded.problems:
+            frame = frames[i]
             frame_problem(self.ctx, frame.t, exc.code, f"latest: {exc}",
                           key=frame.device or frame.transport, every=self.params.report_interval)
+        records = ImuSamples.from_records(decoded.records)
+        if not len(records):
             return
-        if samples is None:
-            self.ctx.count("frames_ignored")
-            return
-        for s in samples:
-            stream, clock = self._routes.route(s.device, frame.agent, self._t)
-            t, resynced = clock.to_pipeline(s.t, frame.t)
-            if resynced:
-                frame_problem(self.ctx, self._t, "clock_resyncs", agent=stream.agent,
-                              key=stream.device, every=self.params.report_interval)
-            done = stream.buffer.add(t, s)
-            if done is not None:
-                self._condition(stream, _newest(done, self._t), done)
+        origin = np.asarray(decoded.origin, np.int64)
+        frame_t = np.array([f.t for f in frames], float)[origin]
+        agent = frames[0].agent
+        devices = dict.fromkeys(records.device)
+        for device in devices:
+            mine, t_frame = records, frame_t
+            if len(devices) > 1:
+                of_device = np.array([d == device for d in records.device])
+                mine, t_frame = records.take(of_device), frame_t[of_device]
+            stream, clock = self._routes.route(device, agent, self._t)
+            if stream.agent == skip_agent:
+                continue
+            if batch is not None:
+                batch.agents.add(stream.agent)
+            t = np.empty(len(mine))
+            for k, (t_dev, t_fr) in enumerate(zip(mine.t.tolist(), t_frame.tolist())):
+                t[k], resynced = clock.to_pipeline(t_dev, t_fr)
+                if resynced:
+                    frame_problem(self.ctx, self._t, "clock_resyncs", agent=stream.agent,
+                                  key=stream.device, every=self.params.report_interval)
+            samples = Samples(t, mine.accel, mine.gyro, mine.mag, mine.flags)
+            self._condition(stream, _newest(samples, self._t), samples)
 
     def _codec_count(self, what: str, n: int) -> None:
         """What a codec counts that is no single frame's fault (incomplete samples)."""
         frame_problem(self.ctx, self._t, what, n=n, every=self.params.report_interval)
 
     def finish(self) -> None:
+        for (transport, _), batch in list(self._batches.items()):
+            done = batch.take()
+            if done is not None:
+                self._decode(self._codecs.get(transport), done)
         self._codecs.finish()
         for stream in list(self._streams.values()):
-            done = stream.buffer.take()
-            if done is not None:
-                self._condition(stream, _newest(done, self._t), done)
             if stream.held is not None:
                 held, stream.held = stream.held, None
                 self._condition(stream, self._t, held, final=True)
         self.ctx.flush_reports()
 
+    def degrade(self, agent: str, level: int) -> str | None:
+        """Backpressure (``firenav_framework.execution``): at level 1 the frames of
+        ``agent``'s link devices are decoded in batches :data:`DEGRADED_BLOCKS` times
+        longer (fewer, longer blocks: less work per sample, later poses); level 0
+        restores ``frames.block_s``. A link device shared with others (a CAN bus) is
+        coarsened for all of them."""
+        block_s = self.params.frames.block_s * (DEGRADED_BLOCKS if level else 1)
+        changed = [b for b in self._batches.values() if agent in b.agents]
+        for batch in changed:
+            batch.block_s = block_s
+        if not changed:
+            return None
+        return f"frames decoded in blocks of {block_s:g} s"
+
     def reset(self, agent: str) -> None:
+        for (transport, _), batch in list(self._batches.items()):
+            done = batch.take()   # a link (a CAN bus) may carry other firefighters too
+            if done is not None:
+                self._decode(self._codecs.get(transport), done, skip_agent=agent)
         self._streams = {k: s for k, s in self._streams.items() if s.agent != agent}
         self._routes.reset(agent)
 
@@ -125,7 +174,6 @@ class FootImuSensor(Sensor):
                               accel=LinearCorrection.build(self._R, cal.accel if cal else None),
                               gyro=LinearCorrection.build(self._R, cal.gyro if cal else None),
                               mag=LinearCorrection.build(self._R, cal.mag if cal else None),
-                              buffer=SampleBuffer(self.params.frames.block_s),
                               axes=tuple(self.params.axes))
         self._streams[(agent, device)] = stream
         return stream

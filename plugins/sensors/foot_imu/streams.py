@@ -7,7 +7,7 @@ from firenav_framework.messages import ImuBlock
 
 from .calibration import LinearCorrection
 from .rest_check import RestCheck
-from .samples import SampleBuffer, Samples, hold_leap
+from .samples import Samples, hold_leap
 from .screening import DeviceHistory, Screening, ScreeningLimits, screen
 
 __all__ = ["DeviceStream"]
@@ -16,14 +16,13 @@ __all__ = ["DeviceStream"]
 @dataclass
 class DeviceStream:
     """The corrections (calibration, then the rotation to FLU), screening memory, held
-    sample, frame buffer and set-up check of one output stream."""
+    sample and set-up check of one output stream."""
 
     agent: str
     device: str
     accel: LinearCorrection
     gyro: LinearCorrection
     mag: LinearCorrection
-    buffer: SampleBuffer
     history: DeviceHistory = field(default_factory=DeviceHistory)
     held: Samples | None = None   # a last sample that leapt ahead, awaiting its successor
     axes: tuple[str, ...] = ("x", "y", "z")   # the declared mapping, for the rest check
