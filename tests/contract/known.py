@@ -9,10 +9,6 @@ from __future__ import annotations
 
 #: (kind, name) -> {check: why it fails}
 KNOWN: dict[tuple[str, str], dict[str, str]] = {
-    ("sensor", "uwb"): {
-        "bad_input": "a range older than its link's last one is filtered in arrival order "
-                     "and not counted",
-    },
     ("sensor", "rssi_breadcrumb"): {
         "bad_input": "a reading older than its link's last one changes the output and is "
                      "not counted",

@@ -101,6 +101,13 @@ class UwbSensor(Sensor):
             self.ctx.count("out_of_range")
             return
         link = self.links[agent].setdefault(anchor, Link())
+        if link.last_t is not None and t < link.last_t:
+            # the link's range track filters forward in time: an older range cannot join it
+            self.ctx.count("out_of_order")
+            self.ctx.warn_once(t, "uwb_out_of_order", f"UWB range {anchor}-{agent} at t="
+                               f"{t:.3f} s is older than the link's last ({link.last_t:.3f} "
+                               "s): dropped (counted as out_of_order)", agent=agent, key=anchor)
+            return
         link.last_t = t
         if link.silent:
             link.silent = False
