@@ -60,7 +60,8 @@ class ImuCsvReader:
     def __init__(self, path: Path, options: ReadOptions):
         self.path = Path(path)
         self.options = options
-        with open(self.path, encoding="utf-8", newline="") as fh:
+        # a stray non-UTF-8 byte makes its row unparseable (counted), not the file unreadable
+        with open(self.path, encoding="utf-8", errors="replace", newline="") as fh:
             self.meta, self.columns, self._data_line = _read_header(fh, self.path)
         self.frame = self.meta.get("frame", "device")
         self.scales = {q: UNIT_SCALES[q][self.meta.get(q, next(iter(UNIT_SCALES[q])))]
@@ -70,7 +71,7 @@ class ImuCsvReader:
         return None  # would need a pass over the whole file
 
     def __iter__(self) -> Iterator[tuple[str, Message]]:
-        with open(self.path, encoding="utf-8", newline="") as fh:
+        with open(self.path, encoding="utf-8", errors="replace", newline="") as fh:
             for _ in range(self._data_line):
                 fh.readline()
             while True:
@@ -137,7 +138,7 @@ def _read_header(fh: IO[str], path: Path) -> tuple[dict[str, str], list[str], in
             if sep and key.strip() in META_KEYS:
                 meta[key.strip()] = value.strip()
             continue
-        columns = [c.strip() for c in text.split(",")]
+        columns = [c.strip().strip('"').strip() for c in text.split(",")]  # quoted names too
         _check_header(path, meta, columns)
         return meta, columns, n
     raise ReaderError(f"{path}: no column header line (expected e.g. "

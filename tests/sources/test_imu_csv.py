@@ -130,3 +130,14 @@ def test_imu_blocks_partition_the_samples_into_block_length_pieces():
     assert np.array_equal(np.concatenate([b.gyro for b in out]), -a)
     assert all(b.time[-1] - b.time[0] < 0.1 and b.t == b.time[-1] for b in out)
     assert len(out) == 51
+
+
+def test_quoted_header_names_and_a_stray_non_utf8_byte_cost_only_that_row(tmp_path):
+    path = tmp_path / "export.csv"
+    path.write_bytes(b'"t","ax","ay","az","gx","gy","gz"\n'
+                     b"0.000,0,0,9.8,0,0,0\n"
+                     b"0.005,0,0,9.8,0,0\xff,0\n"      # a corrupt byte inside a field
+                     b"0.010,0,0,9.8,0,0,0\n")
+    back, counts = read(path, agent="ff1")
+    assert counts == {"bad_rows": 1}
+    assert np.allclose(cat(back, "time"), [0.0, 0.01])
