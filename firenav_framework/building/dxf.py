@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 from shapely.geometry import Polygon
 
@@ -27,6 +26,8 @@ from .bundled import DATA_DIR
 from .geojson_format import DEFAULT_FLOOR_HEIGHT, parse_geojson
 from .limits import (MAX_ARC_SEGMENTS, MAX_FEATURES, MAX_FLOORS, MAX_VERTICES,
                      check_coordinates, check_count)
+from ..yaml_locations import ConfigError
+from ..yaml_locations import load as load_yaml
 from .model import Building, BuildingError
 
 __all__ = ["read_dxf", "LayerMap", "DEFAULT_LAYER_MAP"]
@@ -96,12 +97,12 @@ class LayerMap(BaseModel):
 
 
 def load_layer_map(path: Path) -> LayerMap:
+    """The layer map in ``path``, read with the pipeline files' limits (size, alias
+    expansion, nesting: :mod:`..yaml_locations`)."""
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise BuildingError(f"{path}: cannot read the layer map ({exc})") from None
-    except yaml.YAMLError as exc:
-        raise BuildingError(f"{path}: not valid YAML ({exc})") from None
+        data = load_yaml(path).data
+    except ConfigError as exc:
+        raise BuildingError(f"layer map: {'; '.join(map(str, exc.problems))}") from None
     try:
         return LayerMap.model_validate(data if data is not None else {})
     except ValidationError as exc:

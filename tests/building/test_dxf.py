@@ -118,7 +118,10 @@ def test_bundled_plan_through_dxf_matches_native(tmp_path):
     ("layers: {walls: [W]}\n", r"unknown feature kind\(s\) \['walls'\]"),
     ("floor_pattern: '^F(\\d+)_'\nlayers: {wall: [W]}\n", r"named group \(\?P<floor>"),
     ("layers: {wall: [W]}\nextra: 1\n", r"extra: Extra inputs are not permitted"),
-    ("layers: [", r"not valid YAML"),
+    ("layers: [", r"map.yaml:1:10: YAML syntax error"),
+    ("a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n" + "".join(
+        f"{k}: &{k} [{', '.join(['*' + p] * 10)}]\n" for p, k in zip("abcde", "bcdef")),
+     r"map.yaml:6:\d+: more than \d+ values once aliases are expanded"),
 ])
 def test_bad_layer_maps(tmp_path, yaml_text, message):
     path = two_floor_drawing(tmp_path / "house.dxf")
