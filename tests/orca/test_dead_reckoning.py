@@ -9,6 +9,7 @@ import pytest
 
 from firenav_framework import GroundTruth, Odometry
 from firenav_framework.building import Building, Entrance, Floor, bundled_plan, load_building
+from firenav_framework.capabilities.odometry_correction import StepCorrection
 from firenav_framework.testing import check_plugin, make_component
 from firenav_plugins.estimators.dead_reckoning import DeadReckoningEstimator
 from tests.contract.known import known
@@ -38,8 +39,9 @@ POSE = {"start": {"mode": "pose", "position": (5.0, 8.4, 0.0), "heading": 0.0}}
 L_PATH = np.array([[5.0, 8.4], [6.0, 8.4], [7.0, 8.4], [8.0, 8.4], [8.0, 9.4], [8.0, 10.4]])
 
 
-def run(params, msgs, building=None):
+def run(params, msgs, building=None, constraints=()):
     dr, rec, stats = make_component(DeadReckoningEstimator, params, building=building)
+    dr.constraints.extend(constraints)
     dr.start()
     for m in msgs:
         dr.handle("odo", m)
@@ -188,7 +190,6 @@ class _Teleport:
         self.at, self.shift, self.jump, self.n = at, np.asarray(shift, float), jump, 0
 
     def correct(self, step):
-        from firenav_framework.capabilities.odometry_correction import StepCorrection
         self.n += 1
         if self.n != self.at:
             return None
@@ -196,19 +197,9 @@ class _Teleport:
                               jump=self.jump, event="teleport")
 
 
-def run_with(params, msgs, constraint):
-    dr, rec, stats = make_component(DeadReckoningEstimator, params)
-    dr.constraints.append(constraint)
-    dr.start()
-    for m in msgs:
-        dr.handle("odo", m)
-    dr.finish()
-    return rec, stats.counts.get("under_test", {})
-
-
 def test_a_correction_the_odometry_contradicts_is_reported_widened_and_not_trusted():
     path = np.column_stack([np.arange(11.0), np.zeros(11)])
-    rec, counts = run_with({**POSE}, ins_steps(path), _Teleport(5, (0.0, 4.0)))
+    rec, counts = run({**POSE}, ins_steps(path), constraints=[_Teleport(5, (0.0, 4.0))])
     poses = rec.on("pose")
     assert counts["odometry_contradicted"] == 1
     diag = [d for d in rec.on("diagnostics") if d.code == "odometry_contradicted"]
@@ -216,7 +207,7 @@ def test_a_correction_the_odometry_contradicts_is_reported_widened_and_not_trust
     assert poses[3].trusted and not poses[4].trusted
     assert poses[4].cov[1, 1] >= 16.0 and poses[4].protection_radius > 4.0 * 3.0
     # a small correction within the covariance is no contradiction
-    rec, counts = run_with({**POSE}, ins_steps(path), _Teleport(5, (0.0, 0.2)))
+    rec, counts = run({**POSE}, ins_steps(path), constraints=[_Teleport(5, (0.0, 0.2))])
     assert "odometry_contradicted" not in counts
     assert all(p.trusted for p in rec.on("pose")[:6])
 
