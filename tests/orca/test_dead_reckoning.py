@@ -9,6 +9,7 @@ import pytest
 
 from firenav_framework import GroundTruth, Odometry
 from firenav_framework.building import Building, Entrance, Floor, bundled_plan, load_building
+from firenav_framework.capabilities.odometry_correction import StepCorrection
 from firenav_framework.testing import check_plugin, make_component
 from firenav_plugins.estimators.dead_reckoning import DeadReckoningEstimator
 from tests.contract.known import known
@@ -38,8 +39,9 @@ POSE = {"start": {"mode": "pose", "position": (5.0, 8.4, 0.0), "heading": 0.0}}
 L_PATH = np.array([[5.0, 8.4], [6.0, 8.4], [7.0, 8.4], [8.0, 8.4], [8.0, 9.4], [8.0, 10.4]])
 
 
-def run(params, msgs, building=None):
+def run(params, msgs, building=None, constraints=()):
     dr, rec, stats = make_component(DeadReckoningEstimator, params, building=building)
+    dr.constraints.extend(constraints)
     dr.start()
     for m in msgs:
         dr.handle("odo", m)
@@ -92,7 +94,9 @@ def test_covariance_grows_with_distance_as_heading_error_propagates():
     sp, sh = 0.3, 0.05
     start = {"mode": "pose", "position": (0.0, 0.0, 0.0), "heading": 0.0,
              "sigma_position": sp, "sigma_heading": sh}
-    rec, _ = run({"start": start, "step_noise": {"heading_sigma": 0.0, "length_sigma": 0.0}},
+    no_drift = {"heading_rate_sigma": 0.0, "scale_sigma": 0.0, "turn_sigma": 0.0}
+    rec, _ = run({"start": start, "step_noise": {"heading_sigma": 0.0, "length_sigma": 0.0},
+                  "drift": no_drift},
                  ins_steps(path, cov=np.zeros((4, 4))))
     for k, p in enumerate(rec.on("pose"), 1):
         assert p.cov[1, 1] == pytest.approx(sp ** 2 + (k * sh) ** 2)
@@ -100,13 +104,112 @@ def test_covariance_grows_with_distance_as_heading_error_propagates():
         assert p.cov[3, 3] == pytest.approx(sh ** 2)
     # per-step noise adds on top and accumulates; the floors stand in for what the INS
     # covariance leaves out (here: nothing reported at all)
-    rec2, _ = run({"start": start, "step_noise": {"heading_sigma": 0.01, "length_sigma": 0.02}},
+    rec2, _ = run({"start": start, "step_noise": {"heading_sigma": 0.01, "length_sigma": 0.02},
+                   "drift": no_drift},
                   ins_steps(path, cov=np.zeros((4, 4))))
     poses = rec2.on("pose")
     for k, p in enumerate(poses, 1):
         assert p.cov[3, 3] == pytest.approx(sh ** 2 + k * 0.01 ** 2)
         assert p.cov[0, 0] == pytest.approx(sp ** 2 + k * 0.02 ** 2)
     assert poses[-1].cov[1, 1] > sp ** 2 + (10 * sh) ** 2
+
+
+QUIET = {"step_noise": {"heading_sigma": 0.0, "length_sigma": 0.0}}
+EXACT_START = {"mode": "pose", "position": (0.0, 0.0, 0.0), "heading": 0.0,
+               "sigma_position": 0.0, "sigma_heading": 0.0}
+
+
+def test_heading_rate_state_grows_the_sideways_error_with_time_squared():
+    """A residual heading rate r turns step j (1 m in 1 s) by j*r: the sideways error after
+    k steps is r*k(k-1)/2, so its variance is sigma_r^2 (k(k-1)/2)^2, and the heading's is
+    (k sigma_r)^2 - not the random walk a white per-step heading noise gives."""
+    path = np.column_stack([np.arange(11.0), np.zeros(11)])
+    sr = 0.002
+    rec, _ = run({"start": EXACT_START, **QUIET,
+                  "drift": {"heading_rate_sigma": sr, "scale_sigma": 0.0, "turn_sigma": 0.0}},
+                 ins_steps(path, cov=np.zeros((4, 4))))
+    for k, p in enumerate(rec.on("pose"), 1):
+        assert p.cov[3, 3] == pytest.approx((k * sr) ** 2)
+        assert p.cov[1, 1] == pytest.approx((sr * k * (k - 1) / 2) ** 2, abs=1e-15)
+        assert p.cov[0, 0] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_scale_state_grows_the_along_track_error_with_distance():
+    path = np.column_stack([np.arange(11.0), np.zeros(11)])
+    ss = 0.03
+    rec, _ = run({"start": EXACT_START, **QUIET,
+                  "drift": {"heading_rate_sigma": 0.0, "scale_sigma": ss, "turn_sigma": 0.0}},
+                 ins_steps(path, cov=np.zeros((4, 4))))
+    for k, p in enumerate(rec.on("pose"), 1):
+        assert p.cov[0, 0] == pytest.approx((ss * k) ** 2)      # along: scale x distance
+        assert p.cov[1, 1] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_a_turn_adds_heading_noise_in_proportion_to_its_angle():
+    st = 0.04
+    rec, _ = run({**POSE, **QUIET, "drift": {"heading_rate_sigma": 0.0, "scale_sigma": 0.0,
+                                             "turn_sigma": st}},
+                 ins_steps(L_PATH, cov=np.zeros((4, 4))))
+    h = [p.cov[3, 3] for p in rec.on("pose")]
+    sh2 = 0.05 ** 2                       # the default start heading sigma
+    assert h[2] == pytest.approx(sh2)     # straight so far
+    assert h[3] == pytest.approx(sh2 + (st * math.pi / 2) ** 2)   # the 90 deg corner
+
+
+def test_odometry_heading_variance_raises_the_rate_state():
+    """An INS reporting a heading variance of (0.01 rad)^2 per 1 s step implies a residual
+    rate of 0.01 rad/s: the heading sigma then grows linearly, k * 0.01 after k steps."""
+    path = np.column_stack([np.arange(11.0), np.zeros(11)])
+    cov = np.diag([0.0, 0.0, 0.0, 1e-4])
+    rec, _ = run({"start": EXACT_START, **QUIET,
+                  "drift": {"heading_rate_sigma": 0.0, "scale_sigma": 0.0, "turn_sigma": 0.0}},
+                 ins_steps(path, cov=cov))
+    last = rec.on("pose")[-1]
+    assert last.cov[3, 3] > (10 * 0.01) ** 2        # at least the linear growth
+    assert last.cov[3, 3] > 5 * 10 * 1e-4           # far above the random walk's k sigma^2
+
+
+def test_protection_radius_and_trusted_follow_the_covariance():
+    path = np.column_stack([np.arange(41.0), np.zeros(41)])
+    rec, _ = run({"start": EXACT_START, **QUIET,
+                  "drift": {"heading_rate_sigma": 0.0, "scale_sigma": 0.03, "turn_sigma": 0.0},
+                  "integrity": {"alert_limit": 2.0}},
+                 ins_steps(path, cov=np.zeros((4, 4))))
+    poses = rec.on("pose")
+    for k, p in enumerate(poses, 1):
+        # isotropic bound of the largest axis: 0.03 k sigma, 3.035 sigma at 99 %
+        assert p.protection_radius == pytest.approx(0.03 * k * math.sqrt(-2 * math.log(0.01)))
+        assert p.trusted == (p.protection_radius <= 2.0)
+    assert poses[0].trusted and not poses[-1].trusted
+
+
+class _Teleport:
+    """A constraint that moves the agent by ``shift`` (2,) [m] at step ``at``."""
+
+    def __init__(self, at: int, shift, jump: bool = False):
+        self.at, self.shift, self.jump, self.n = at, np.asarray(shift, float), jump, 0
+
+    def correct(self, step):
+        self.n += 1
+        if self.n != self.at:
+            return None
+        return StepCorrection(position=step.proposed + np.array([*self.shift, 0.0]),
+                              jump=self.jump, event="teleport")
+
+
+def test_a_correction_the_odometry_contradicts_is_reported_widened_and_not_trusted():
+    path = np.column_stack([np.arange(11.0), np.zeros(11)])
+    rec, counts = run({**POSE}, ins_steps(path), constraints=[_Teleport(5, (0.0, 4.0))])
+    poses = rec.on("pose")
+    assert counts["odometry_contradicted"] == 1
+    diag = [d for d in rec.on("diagnostics") if d.code == "odometry_contradicted"]
+    assert len(diag) == 1 and "4.0 m" in diag[0].text and "(10.0, 12.4)" in diag[0].text
+    assert poses[3].trusted and not poses[4].trusted
+    assert poses[4].cov[1, 1] >= 16.0 and poses[4].protection_radius > 4.0 * 3.0
+    # a small correction within the covariance is no contradiction
+    rec, counts = run({**POSE}, ins_steps(path), constraints=[_Teleport(5, (0.0, 0.2))])
+    assert "odometry_contradicted" not in counts
+    assert all(p.trusted for p in rec.on("pose")[:6])
 
 
 def test_gap_in_odometry_is_bridged_from_absolute_positions():

@@ -108,12 +108,42 @@ def test_range_that_fits_no_door_keeps_the_agent_out():
 def test_agent_kept_out_of_a_room_is_reset_to_the_ins_position():
     """No door anywhere: the wall holds the agent while the INS walks on into the room,
     until the implied speed exceeds max_speed (wrong compartment, §2.2)."""
-    w = Walker(building(WALL), (0.0, 1.0), -math.pi / 2, orca={"max_speed": 2.5})
+    w = Walker(building(WALL), (0.0, 1.0), -math.pi / 2, orca={"max_speed": 2.5, "reset_from": "fixed"})
     ends = [w.step(0.0, -1.0) for _ in range(4)]
     events = w.counts()
     assert events.get("orca_reset") == 1
     assert ends[0][1] >= 0.25 - 1e-9 and ends[1][1] >= 0.25 - 1e-9
     np.testing.assert_allclose(ends[-1][:2], [0.0, -3.0], atol=1e-9)   # the INS position
+
+
+def test_speed_aware_reset_comes_once_the_hold_would_outrun_the_ins():
+    """The same room without a door, ``reset_from: ins_speed``: a hold is kept while the
+    lag it leaves behind the INS is within the margin (1.3 m/s over the 1 s step, plus 3
+    sigma of the step: 1.34 m); the first step is held where ORCA's 2 s time horizon
+    lets it go (y 0.625, lag 0.625 m), the second would be held at y 0.44 with
+    the INS at -1 (lag 1.44 m): reset there, and the INS position from then on."""
+    w = Walker(building(WALL), (0.0, 1.0), -math.pi / 2, orca={"reset_from": "ins_speed"})
+    ends = [w.step(0.0, -1.0) for _ in range(4)]
+    assert w.counts().get("orca_reset") == 1
+    assert ends[0][1] == pytest.approx(0.625)
+    for k in (1, 2, 3):
+        np.testing.assert_allclose(ends[k][:2], [0.0, -float(k)], atol=1e-9)
+
+
+def test_running_beside_a_wall_is_no_wrong_compartment():
+    """Running at 3 m/s along a wall with a heading 5 deg into it (issue 15: the fixed
+    2.5 m/s test reset on every wall contact): with ``ins_speed`` the contacts are heading
+    corrections, never resets, and the agent stays on its side of the wall."""
+    a = math.radians(-5)
+    for mode, resets in (("fixed", True), ("ins_speed", False)):
+        w = Walker(building(WALL), (-8.0, 0.6), 0.0,
+                   orca={"reset_from": mode, "max_speed": 2.5})
+        ends = [w.step(3.0 * math.cos(a), 3.0 * math.sin(a)) for _ in range(5)]
+        events = w.counts()
+        assert ("orca_reset" in events) == resets, (mode, events)
+        if not resets:
+            assert events.get("orca_rotation", 0) >= 1
+            assert all(e[1] >= 0.25 - 1e-9 for e in ends)
 
 
 def test_team_members_avoid_each_other():
@@ -209,7 +239,7 @@ def test_a_turn_square_into_a_wall_does_not_hide_a_wrong_compartment():
     the turn the contact is no shallow slide, so the path is not translated with the
     agent; the wall holds the agent while the INS walks on, until the implied speed
     exceeds max_speed and the agent is reset to the INS position (§2.2)."""
-    w = Walker(building(WALL), (0.0, 1.0), 0.0, orca={"max_speed": 2.5})
+    w = Walker(building(WALL), (0.0, 1.0), 0.0, orca={"max_speed": 2.5, "reset_from": "fixed"})
     w.step(1.0, 0.0)
     into = (0.5, -math.sqrt(3) / 2)
     ends = [w.step(*into, turn=-math.pi / 3 if k == 0 else 0.0) for k in range(5)]

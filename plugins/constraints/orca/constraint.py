@@ -17,8 +17,15 @@ read the angle at which the step meets the wall it touches first (:mod:`.rules`)
   update matrix;
 * anything else: the wall holds the agent (it moves with the ORCA velocity closest to
   the INS velocity) and no update is stored;
-* a speed above ``max_speed`` between the corrected agent and the INS position: the
-  agent is in the wrong compartment and is reset to the INS position.
+* an implausible lag of the corrected agent behind the INS position: the agent is in
+  the wrong compartment and is reset to the INS position. The paper's test is a speed
+  above ``max_speed`` (2.5 m/s, "unnatural for humans") from the agent to the INS
+  position (``reset_from: fixed``); a firefighter running at 3 m/s trips it on every
+  step. ``reset_from: ins_speed`` (the default) asks instead whether that speed exceeds
+  the speed the INS measured for the step by more than ``reset_margin`` plus
+  ``reset_gate`` sigmas of the step's own uncertainty: the lag must come from the map
+  correction, not from running; a step that a rule would leave so far behind the INS
+  is reset at once (a long step while running that cuts a corner or a door).
 
 For a sliding contact theta equals that angle; near a wall's end (a door jamb) ORCA can
 slip past the end with a small rotation although the step ran square into the wall,
@@ -53,7 +60,10 @@ door. Meant for firefighters moving independently; a team holding on to each oth
 rather than of the step (which sways from stride to stride).
 
 Ranges come from the constraint's own input (``Range`` messages, e.g. the ``uwb``
-sensor's ``range`` port); the anchors' positions from the building.
+sensor's ``range`` port); the anchors' positions from the building. A range taken
+``age`` seconds before the step is used with its sigma widened by the distance the INS
+says the agent moved meanwhile (``speed * age``), so a range stays useful while running
+as long as it is not older than ``range_max_age``.
 """
 from __future__ import annotations
 
@@ -124,7 +134,16 @@ class OrcaConstraint(OdometryCorrection):
                                       "around door_angle (15 deg, §2.2)")
         max_speed: float = param(2.5, unit="m/s", gt=0, description="speed between the corrected "
                                  "and the INS position above which the agent is in the wrong "
-                                 "compartment and is reset (\"unnatural for humans\", §2.2)")
+                                 "compartment and is reset (\"unnatural for humans\", §2.2; "
+                                 "reset_from: fixed)")
+        reset_from: Literal["fixed", "ins_speed"] = param(
+            "ins_speed", description="wrong-compartment test: 'fixed' = speed from the agent "
+            "to the INS position above max_speed (§2.2); 'ins_speed' = that speed above the "
+            "INS's own speed for the step by more than reset_margin + reset_gate sigma")
+        reset_margin: float = param(1.3, unit="m/s", ge=0, description="lag speed beyond the "
+                                    "INS's speed that is implausible (ins_speed test)")
+        reset_gate: float = param(3.0, ge=0, description="sigmas of the INS step's own "
+                                  "uncertainty added to the margin (ins_speed test)")
         door_search_radius: float = param(4.0, unit="m", gt=0, description="doors farther than "
                                           "this from the agent are not candidates")
         door_line_tolerance: float = param(0.3, unit="m", gt=0, description="a candidate "
@@ -185,40 +204,78 @@ class OrcaConstraint(OdometryCorrection):
             return
         self.agents[msg.agent].ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
 
-    def _fresh_ranges(self, agent: _Agent, t: float) -> list[RangeFix]:
-        return [RangeFix(self._anchors.positions[a], r, s)
+    def _fresh_ranges(self, agent: _Agent, t: float, speed: float) -> list[RangeFix]:
+        """Ranges no older than ``range_max_age`` at time ``t`` [s], each sigma widened by
+        the distance moved since at ``speed`` [m/s]."""
+        return [RangeFix(self._anchors.positions[a], r, math.hypot(s, speed * abs(t - tr)))
                 for a, (tr, r, s) in sorted(agent.ranges.items())
                 if abs(t - tr) <= self.params.range_max_age]
 
+    def _implausible_lag(self, step: OdometryStep) -> bool:
+        """The wrong-compartment test (§2.2): the corrected agent, before the step, lags
+        implausibly far behind the INS position after it."""
+        p = self.params
+        lag = math.hypot(step.proposed[0] - step.prev[0], step.proposed[1] - step.prev[1])
+        if p.reset_from == "fixed":
+            return lag > p.max_speed * step.dt
+        odo = step.odometry
+        return lag > math.hypot(odo.delta[0], odo.delta[1]) + self._lag_allowance(step)
+
+    def _left_behind(self, step: OdometryStep, fix: StepCorrection) -> bool:
+        """``ins_speed`` test only: would the rule's answer leave the agent lagging the
+        INS position (moved by the answer's update) by more than the next step can
+        plausibly catch up?"""
+        if self.params.reset_from == "fixed":
+            return False
+        target = step.proposed[:2] if fix.update is None else fix.update.apply(step.proposed[:2])
+        lag = math.hypot(target[0] - fix.position[0], target[1] - fix.position[1])
+        return lag > self._lag_allowance(step)
+
+    def _lag_allowance(self, step: OdometryStep) -> float:
+        """Lag [m] beyond the INS's own step that is plausible: the margin speed over the
+        step's duration plus ``reset_gate`` sigmas of the step's uncertainty."""
+        cov = step.odometry.cov
+        sigma = math.sqrt(max(float(cov[0, 0] + cov[1, 1]), 0.0))
+        return self.params.reset_margin * step.dt + self.params.reset_gate * sigma
+
     # -- the odometry_correction protocol ----------------------------------------------
     def correct(self, step: OdometryStep) -> StepCorrection | None:
-        p = self.params
         me = self.agents[step.agent]
+        fix = self._rules(me, step)
+        if fix is not None and fix.event != "orca_reset" and self._left_behind(step, fix):
+            # where the rule would leave the agent it lags the INS implausibly (a long
+            # step while running, cutting a corner or a door): the reset rule's answer,
+            # one step sooner
+            fix = StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
+        return self._record(me, step, fix)
+
+    def _rules(self, me: _Agent, step: OdometryStep) -> StepCorrection | None:
+        """The paper's rules and the guards for one step (module docstring)."""
+        p = self.params
         turning = self._turning(me, step)
         pos, target = step.prev[:2], step.proposed[:2]
         here = self._tables(self._building.floor_of_z(step.prev[2]))
-        if math.hypot(target[0] - pos[0], target[1] - pos[1]) > p.max_speed * step.dt:
+        if self._implausible_lag(step):
             # Wrong compartment: the agent lags implausibly far behind the INS (§2.2).
-            return self._record(me, step, StepCorrection(position=step.proposed.copy(),
-                                                         jump=True, event="orca_reset"))
+            return StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
         grid = here.grid
         code, v_orca, theta, wall, frac = grid.step(pos, target, step.dt, p.radius,
                                                     p.time_horizon, p.team_time_horizon,
                                                     *self._team(step))
         if code == FREE:
-            return self._record(me, step, None)
+            return None
         if wall < 0:
             # only team members in the way: avoid them; they say nothing about heading
-            return self._record(me, step, StepCorrection(
-                position=_with_z(pos + step.dt * v_orca, step), event="orca_team"))
+            return StepCorrection(position=_with_z(pos + step.dt * v_orca, step),
+                                  event="orca_team")
         move = target - pos
         if p.door_pass:
             passed = here.doors.passed(pos, target)
             if passed is not None:
                 # the step goes through a doorway and the disc only clips a jamb
                 k, f = passed
-                return self._record(me, step, self._through_door(
-                    step, here, pos, move, f, k, jump=False, event="orca_door_pass"))
+                return self._through_door(step, here, pos, move, f, k, jump=False,
+                                          event="orca_door_pass")
         kind = classify_rotation(approach_angle(move, grid.segs[wall]), p.min_rotation,
                                  p.max_rotation, p.door_angle, p.door_tolerance)
         if math.hypot(move[0], move[1]) < p.min_step:
@@ -226,7 +283,7 @@ class OrcaConstraint(OdometryCorrection):
         if kind == "door":
             fix = self._door(me, step, here, pos, move, wall)
             if fix is not None:
-                return self._record(me, step, fix)
+                return fix
             kind = "blocked"
         if turning and kind in ("small", "rotation"):
             # During a turn the step direction is not the walking direction, and a
@@ -235,14 +292,14 @@ class OrcaConstraint(OdometryCorrection):
             # not later pass for a heading error or a wrong compartment. (A steeper
             # contact falls through to 'blocked': the reset rule must still see it.)
             moved = pos + step.dt * v_orca
-            return self._record(me, step, StepCorrection(
-                position=_with_z(moved, step), update=Rigid2D.translation(moved - target),
-                event="orca_turn_slide"))
+            return StepCorrection(position=_with_z(moved, step),
+                                  update=Rigid2D.translation(moved - target),
+                                  event="orca_turn_slide")
         if kind in ("small", "rotation") and not abs(theta) <= p.max_rotation:
             kind = "blocked"          # a shallow contact no small rotation avoids (a corner)
         if kind == "blocked":
-            return self._record(me, step, StepCorrection(
-                position=_with_z(pos + step.dt * v_orca, step), event="orca_blocked"))
+            return StepCorrection(position=_with_z(pos + step.dt * v_orca, step),
+                                  event="orca_blocked")
         c, s = math.cos(theta), math.sin(theta)
         moved = np.array([pos[0] + c * move[0] - s * move[1], pos[1] + s * move[0] + c * move[1]])
         stored = theta
@@ -252,11 +309,9 @@ class OrcaConstraint(OdometryCorrection):
             stored = grid.rotation_for(np.array([speed * math.cos(step.heading),
                                                  speed * math.sin(step.heading)]))
         if not abs(stored) >= p.min_rotation or abs(stored) > p.max_rotation:
-            return self._record(me, step, StepCorrection(position=_with_z(moved, step),
-                                                         event="orca_small"))
-        return self._record(me, step, StepCorrection(
-            position=_with_z(moved, step), update=Rigid2D.rotation_about(stored, pos),
-            event="orca_rotation"))
+            return StepCorrection(position=_with_z(moved, step), event="orca_small")
+        return StepCorrection(position=_with_z(moved, step),
+                              update=Rigid2D.rotation_about(stored, pos), event="orca_rotation")
 
     def _door(self, me: _Agent, step: OdometryStep, here: _FloorTables, pos: np.ndarray,
               move: np.ndarray, wall: int) -> StepCorrection | None:
@@ -266,7 +321,9 @@ class OrcaConstraint(OdometryCorrection):
         seg = here.grid.segs[wall]
         f = line_crossing(pos, move, seg)
         crossing = pos + f * move
-        ranges = self._fresh_ranges(me, step.t)
+        odo = step.odometry
+        speed = math.hypot(odo.delta[0], odo.delta[1]) / max(odo.t - odo.t_start, 1e-3)
+        ranges = self._fresh_ranges(me, step.t, speed)
         if not ranges and p.door_needs_range:
             self.ctx.count("orca_door_no_range")
             return None

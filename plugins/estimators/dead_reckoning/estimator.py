@@ -23,10 +23,20 @@ With no constraints this is the plain "INS alone" baseline in the building frame
 the evaluations of several papers compare against.
 
 Outputs, per step: ``pose`` (PoseEstimate; covariance propagated from the entry
-uncertainty and each step's odometry covariance, so it grows with distance and turns)
+uncertainty, each step's odometry covariance and two error states the odometry's white
+noise leaves out - the heading rate, so the heading error grows with time, and the
+step-length scale, so the distance error grows with distance (``drift``) - with the
+protection radius and ``trusted`` derived from it, :mod:`firenav_framework.integrity`)
 and ``odometry`` (the corrected increments in the building frame, so map-corrected
 odometry can feed a particle filter or EKF downstream; steps moved by a jump rule carry
 the jump in their covariance).
+
+**Contradiction.** A correction that moves the position further from the odometry's
+prediction (the previous position plus the step) than the covariance allows
+(``drift.contradiction_gate``, squared Mahalanobis distance) contradicts the odometry: a
+diagnostic ``odometry_contradicted`` says where, the pose is not trusted, and the
+covariance is widened by the size of the correction, as for every jump (door or reset
+rule): the estimate does not hold on to a position its own odometry disagrees with.
 """
 from __future__ import annotations
 
@@ -39,6 +49,7 @@ from firenav_framework import Estimator, GroundTruth, Odometry, PerAgent, PoseEs
 from firenav_framework.contract import NoBuilding
 from firenav_framework.capabilities.odometry_correction import OdometryCorrection, OdometryStep
 from firenav_framework.geometry import Rigid2D, planar_rotation, wrap_angle
+from firenav_framework.integrity import gaussian_protection_radius, trusted
 
 from ..odometry_input import accept_odometry
 from ..start_pose import entrance_start
@@ -54,7 +65,7 @@ class _AgentState:
     ins: np.ndarray = field(default_factory=lambda: np.zeros(3))   # integrated INS position
     position: np.ndarray | None = None    # corrected building-frame position
     heading: float = 0.0                  # corrected building-frame heading
-    cov: np.ndarray | None = None         # (4, 4) over (x, y, z, heading)
+    cov: np.ndarray | None = None         # (6, 6): (x, y, z, heading, heading rate, scale)
     t: float | None = None                # time of the last step output
     last_t: float | None = None           # time of the last odometry accepted
     last_abs: np.ndarray | None = None    # the INS's own absolute position at t
@@ -206,7 +217,9 @@ class DeadReckoningEstimator(Estimator):
         st.position = np.array([*st.transform.apply(np.zeros(2)), position[2]])
         st.heading = wrap_angle(h_ins0 + st.transform.angle)
         sp, sh = start.sigma_position, start.sigma_heading
-        st.cov = np.diag([sp ** 2, sp ** 2, 0.01, sh ** 2])
+        drift = self.params.drift
+        st.cov = np.diag([sp ** 2, sp ** 2, 0.01, sh ** 2, drift.heading_rate_sigma ** 2,
+                          drift.scale_sigma ** 2])
         st.z0 = float(position[2])
         return True
 
@@ -216,6 +229,7 @@ class DeadReckoningEstimator(Estimator):
         dt = max(dt, 1e-3)
         prev = st.position.copy()
         st.ins = st.ins + delta
+        odometry_move = planar_rotation(st.transform.angle, 2) @ delta[:2]
         proposed = np.array([*st.transform.apply(st.ins[:2]), st.z0 + st.ins[2]])
         heading = wrap_angle(msg.heading + st.yaw_offset + st.transform.angle)
         position, jump, dangle = proposed, False, 0.0
@@ -234,30 +248,62 @@ class DeadReckoningEstimator(Estimator):
                 st.transform = st.transform.then(fix.update)
                 dangle += fix.update.angle
                 heading = wrap_angle(heading + fix.update.angle)
-        # covariance: heading error carries into position, plus the step's own noise
         move = position - prev
-        g = planar_rotation(st.transform.angle, 4)
-        f = np.eye(4)
-        f[0, 3], f[1, 3] = -move[1], move[0]
-        q = g @ np.asarray(msg.cov, float) @ g.T
-        # floors for what INS covariances tend to leave out (heading drift, step length)
-        length2 = float(delta[:2] @ delta[:2])
-        least = self.params.step_noise
-        q[3, 3] = max(q[3, 3], least.heading_sigma ** 2)
-        for i in (0, 1):
-            q[i, i] = max(q[i, i], least.length_sigma ** 2 * length2)
-        if jump:
-            q[:2, :2] += np.eye(2) * float(move[:2] @ move[:2])
-        st.cov = f @ st.cov @ f.T + q
+        q = self._step_noise(st, msg, delta)
+        # the odometry's heading variance per step, read as a residual rate
+        duration = max(msg.t - msg.t_start, 1e-3)
+        st.cov[4, 4] = max(st.cov[4, 4], float(msg.cov[3, 3]) / duration ** 2)
+        st.cov = _propagate(st.cov, move, dt, q)
+        # a correction the odometry cannot explain: say so and widen by it
+        off = position[:2] - prev[:2] - odometry_move
+        contradicted = self._contradicts(st.cov[:2, :2], off)
+        if contradicted:
+            self.ctx.count("odometry_contradicted")
+            self.ctx.diagnose(msg.t, "warning", "odometry_contradicted",
+                              f"a correction moved {msg.agent} {np.hypot(*off):.1f} m from "
+                              f"where the odometry puts it, at ({position[0]:.1f}, "
+                              f"{position[1]:.1f}) m: the pose is widened and not trusted",
+                              agent=msg.agent)
+        if jump or contradicted:
+            widen = np.eye(2) * float(off @ off)
+            st.cov[:2, :2] += widen
+            q[:2, :2] += widen
         st.position, st.heading, st.t = position, heading, msg.t
+        integrity = self.params.integrity
+        radius = gaussian_protection_radius(st.cov[:2, :2], integrity.containment)
         floor = None if self._floors is None else int(self._floors.floor_of_z(position[2]))
         self.ctx.publish("pose", PoseEstimate(
             t=msg.t, agent=msg.agent, device=msg.device, position=position.copy(),
-            heading=heading, cov=st.cov.copy(), floor=floor))
+            heading=heading, cov=st.cov[:4, :4].copy(), floor=floor,
+            protection_radius=radius, trusted=trusted(radius, integrity, contradicted)))
         self.ctx.publish("odometry", Odometry(
             t=msg.t, agent=msg.agent, device=msg.device, t_start=msg.t - dt, delta=move,
             dheading=msg.dheading + dangle, cov=q, position=position.copy(),
             heading=heading, motion=msg.motion))
+
+    def _step_noise(self, st: _AgentState, msg: Odometry, delta: np.ndarray) -> np.ndarray:
+        """The step's odometry covariance (4, 4) in the building frame, with the floors for
+        what INS covariances tend to leave out (heading noise, step length)."""
+        g = planar_rotation(st.transform.angle, 4)
+        q = g @ np.asarray(msg.cov, float) @ g.T
+        length2 = float(delta[:2] @ delta[:2])
+        least = self.params.step_noise
+        q[3, 3] = max(q[3, 3], least.heading_sigma ** 2) + \
+            (self.params.drift.turn_sigma * msg.dheading) ** 2
+        for i in (0, 1):
+            q[i, i] = max(q[i, i], least.length_sigma ** 2 * length2)
+        return q
+
+    def _contradicts(self, cov_xy: np.ndarray, off: np.ndarray) -> bool:
+        """Whether a correction ``off`` (2,) [m] from the odometry's prediction is beyond
+        the contradiction gate of the covariance ``cov_xy`` (2, 2) [m^2]."""
+        if math.hypot(off[0], off[1]) < 1e-6:
+            return False               # rounding, not a correction
+        try:
+            m2 = float(off @ np.linalg.solve(cov_xy, off))
+        except np.linalg.LinAlgError:
+            return True
+        return not m2 <= self.params.drift.contradiction_gate
 
     def _bridge(self, st: _AgentState, msg: Odometry, delta: np.ndarray) -> np.ndarray:
         """Missed odometry before this step: add the INS's own absolute displacement."""
@@ -283,3 +329,16 @@ def _building(ctx):
                          "'building:' to the pipeline, use a source that brings one, or "
                          "give the start pose (start: {mode: pose, position: [x, y, z], "
                          "heading: ...})") from exc
+
+
+def _propagate(cov: np.ndarray, move: np.ndarray, dt: float, q: np.ndarray) -> np.ndarray:
+    """Covariance (6, 6) after a step ``move`` (3,) [m] over ``dt`` [s] with the step's
+    own noise ``q`` (4, 4): a heading error turns the step, the heading rate adds to the
+    heading, a scale error lengthens the step."""
+    f = np.eye(6)
+    f[0, 3], f[1, 3] = -move[1], move[0]
+    f[3, 4] = dt
+    f[0, 5], f[1, 5] = move[0], move[1]
+    out = f @ cov @ f.T
+    out[:4, :4] += q
+    return out

@@ -2,9 +2,12 @@
 IMU-yaw to walking-direction offset, the per-step noise floors and gap bridging."""
 from __future__ import annotations
 
+import math
+
 from pydantic import model_validator
 
-from firenav_framework import Angle, Params, StartPose, param
+from firenav_framework import Angle, AngularRate, Params, StartPose, param
+from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import missing_headings, start_pose_type
 
@@ -61,6 +64,35 @@ class StepNoise(Params):
                                 "a fraction of the step length")
 
 
+class Drift(Params):
+    """Errors of the INS that stay with it from step to step, as states of the covariance.
+
+    The per-step odometry covariance is white: it lets the heading wander as a random
+    walk and the step lengths err independently. A foot INS's heading error grows
+    linearly with time (the residual gyro bias about z) and its distance error linearly
+    with distance (a stride-length scale error): both are carried as states, so the
+    position covariance grows the way the track drifts. Each turn adds heading noise in
+    proportion to its angle (the gyro's scale factor). An odometry whose heading variance
+    per step implies a larger residual rate (an INS that knows it is uncalibrated) raises
+    the rate state to it.
+    """
+
+    heading_rate_sigma: AngularRate = param(0.1 * math.pi / 180, unit="rad/s", ge=0,
+                                            description="1-sigma residual heading rate (gyro "
+                                            "bias about z); at least the rate the odometry's "
+                                            "own heading variance per step implies")
+    scale_sigma: float = param(0.03, ge=0, lt=1, description="1-sigma step-length scale "
+                               "error (fraction)")
+    turn_sigma: float = param(0.03, ge=0, lt=1, description="1-sigma heading error per "
+                              "radian turned (gyro scale factor, g-sensitivity), white from "
+                              "turn to turn")
+    contradiction_gate: float = param(13.8, gt=0, description="a correction whose squared "
+                                      "Mahalanobis distance from the odometry's prediction "
+                                      "exceeds this (13.8: 99.9 % of a 2-D Gaussian) "
+                                      "contradicts the odometry: reported, and the pose "
+                                      "covariance widened by it")
+
+
 class DeadReckoningParams(Params):
     start: Start = param(DEFAULT_START, description=(
         "how the INS frame is placed in the building (eq. 9): mode 'entrance' = the building "
@@ -72,6 +104,10 @@ class DeadReckoningParams(Params):
                                          "the INS heading")
     step_noise: StepNoise = param(StepNoise(), description="least per-step noise in the "
                                   "covariance")
+    drift: Drift = param(Drift(), description="heading-rate and step-scale error states; "
+                         "the contradiction gate of corrections")
+    integrity: IntegrityParams = param(IntegrityParams(), description="protection radius "
+                                       "containment and the alert limit of 'trusted'")
     max_bridge_speed: float = param(3.0, unit="m/s", gt=0, description="a gap in the "
                                     "odometry is bridged from the INS's absolute positions "
                                     "only if the implied speed is below this")
