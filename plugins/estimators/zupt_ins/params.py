@@ -44,14 +44,16 @@ class CrawlLevels(Params):
 
     low: float = param(5.5, unit="log10 T", description="SHOE statistic below which the "
                        "foot is surely still")
-    high: float = param(6.6, unit="log10 T", description="SHOE statistic above which the "
+    high: float = param(7.2, unit="log10 T", description="SHOE statistic above which the "
                         "foot surely moves")
-    kappa: float = param(0.2, gt=0, lt=1, description="threshold position between stance "
+    kappa: float = param(0.35, gt=0, lt=1, description="threshold position between stance "
                          "floor and swing level (log scale)")
     prominence: float = param(1.0, gt=0, unit="decades", description="swing level above "
                               "stance floor needed to call it a gait")
     min_stance: float = param(0.025, unit="s", ge=0, description="zero-velocity runs "
                               "shorter than this are dropped")
+    smoothing: float = param(0.15, unit="s", ge=0, description="the statistic is averaged "
+                             "over this span, centred (at most twice detector.ahead)")
 
     @model_validator(mode="after")
     def _levels(self) -> "CrawlLevels":
@@ -279,7 +281,8 @@ class ZuptInsParams(Params):
             min_stance=max(1, samples(d.min_stance)), crawl_up=math.cos(self.gait.crawl_tilt),
             crawl_low=10.0 ** d.crawl.low, crawl_high=10.0 ** d.crawl.high,
             crawl_kappa=d.crawl.kappa, crawl_prominence=d.crawl.prominence,
-            crawl_min_stance=max(1, samples(d.crawl.min_stance)))
+            crawl_min_stance=max(1, samples(d.crawl.min_stance)),
+            crawl_half=min(samples(d.crawl.smoothing) // 2, samples(d.ahead)))
 
     def filter_config(self, rate: float) -> eskf.FilterConfig:
         """Filter kernel configuration for an IMU at ``rate`` Hz."""
