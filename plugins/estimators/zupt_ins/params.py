@@ -74,7 +74,7 @@ class Detector(Params):
                                     "when the statistic T is below this (default per detector)")
     low: float = param(6.6, unit="log10 T", description="adaptive: SHOE statistic below "
                        "which the foot is surely still")
-    high: float = param(8.7, unit="log10 T", description="adaptive: SHOE statistic above "
+    high: float = param(9.0, unit="log10 T", description="adaptive: SHOE statistic above "
                         "which the foot surely moves")
     kappa: float = param(0.25, gt=0, lt=1, description="adaptive: threshold position "
                          "between stance floor and swing level (log scale)")
@@ -211,13 +211,19 @@ class OdometryNoise(Params):
     """Errors the filter does not estimate, added to each step's covariance."""
 
     yaw_rate_sigma: AngularRate = param(0.05 * DEG, unit="rad/s", ge=0, description=(
-        "residual gyro bias, added to each step's heading variance as (sigma * step "
-        "duration)^2"))
+        "turn-rate error independent from step to step, added to each step's heading "
+        "variance as (sigma * step duration)^2"))
+    yaw_drift_sigma: AngularRate = param(0.17 * DEG, unit="rad/s", ge=0, description=(
+        "spread of the heading drift rate that lasts the mission (residual and "
+        "vibration-rectified gyro bias): a step from t0 to t1 [s since navigation began] "
+        "adds sigma^2 (t1^2 - t0^2) to its heading variance, so the increments' summed "
+        "variance is (sigma t)^2"))
     length_sigma: float = param(0.02, ge=0, lt=1, description=(
         "relative step-length error added along each step's displacement covariance"))
 
     def errors(self) -> UnmodelledErrors:
-        return UnmodelledErrors(yaw_rate_sigma=self.yaw_rate_sigma, length_sigma=self.length_sigma)
+        return UnmodelledErrors(yaw_rate_sigma=self.yaw_rate_sigma,
+                                yaw_drift_sigma=self.yaw_drift_sigma, length_sigma=self.length_sigma)
 
 
 class Outputs(Params):
