@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/bench_ins_gaits.py                  # report seeds 1000-1019
     .venv/bin/python benchmarks/bench_ins_gaits.py --seeds tuning   # seeds 100-139
+    .venv/bin/python benchmarks/bench_ins_gaits.py --field          # the field scenarios
     .venv/bin/python benchmarks/bench_ins_gaits.py --tune           # choose the crawl levels
 
 Three scenarios of ``benchmarks/scenarios`` (the same corridor, the IMU of the real
@@ -67,6 +68,11 @@ SCENARIOS: dict[str, Path | str] = {
     **{g: REPO / "benchmarks" / "scenarios" / f"ins_{g}.yaml" for g in ("walk", "crawl", "run")},
     "stairs": "zupt_multifloor",    # bundled: ten minutes over three storeys
 }
+#: ``--field``: the bundled field scenarios with crawling or running (uncalibrated
+#: mid-grade IMUs, no still start, furniture): the same figures, no real rows.
+FIELD: dict[str, Path | str] = {"crawl_search": "field_crawl_search",
+                                "corridor_run": "field_corridor_run",
+                                "multifloor_long": "field_multifloor_long"}
 SEEDS = {"tuning": range(100, 140), "report": range(1000, 1020)}
 #: device axes of the simulator's IMU frames -> FLU
 TO_FLU = {"FRD": np.array([1.0, -1.0, -1.0]), "FLU": np.ones(3)}
@@ -106,7 +112,7 @@ class Score:
 
 
 def record(gait: str, seed: int) -> Recording:
-    r = simulate(SCENARIOS[gait], seed)
+    r = simulate({**SCENARIOS, **FIELD}[gait], seed)
     rec, truth = r.imu["ff1"], r.truth["ff1"]
     axes = TO_FLU[rec.frame]
     return Recording(rec.time, rec.accel * axes, rec.gyro * axes, truth.foot.position,
@@ -172,25 +178,29 @@ def vicon_ratios(params: ZuptInsParams, crawls: list, walks: list) -> tuple[floa
     return whole, float(np.mean(equal))
 
 
-def report(seeds: range) -> None:
+def report(seeds: range, field: bool = False) -> None:
     t0 = time.perf_counter()
     configs = {"now": ZuptInsParams(), "before": PREVIOUS}
     scores: dict[tuple[str, str], list[Score]] = {}
-    for gait in SCENARIOS:
+    gaits = FIELD if field else SCENARIOS
+    for gait in gaits:
         for seed in seeds:
             rec = record(gait, seed)
             for name, params in configs.items():
                 scores.setdefault((gait, name), []).append(score(params, rec))
     print(f"Simulated gaits, seeds {seeds.start}-{seeds.stop - 1} ({len(seeds)} runs per row): "
           "median [min, max]\n")
-    print(f"{'gait':6s} {'defaults':8s} | {'steps/stride':>22s} | {'distance ratio':>22s} | "
+    print(f"{'scenario':15s} {'defaults':8s} | {'steps/stride':>22s} | {'distance ratio':>22s} | "
           f"{'error per metre [%]':>22s} | {'height error [m]':>22s} | {'at the end [m]':>22s}")
     for (gait, name), s in scores.items():
-        print(f"{gait:6s} {name:8s} | {spread([x.steps for x in s]):>22s} | "
+        print(f"{gait:15s} {name:8s} | {spread([x.steps for x in s]):>22s} | "
               f"{spread([x.distance for x in s]):>22s} | "
               f"{spread([100 * x.error for x in s], '{:.2f}'):>22s} | "
               f"{spread([x.vertical for x in s], '{:.2f}'):>22s} | "
               f"{spread([x.vertical_end for x in s], '{:.2f}'):>22s}")
+    if field:
+        print(f"({time.perf_counter() - t0:.0f} s)")
+        return
     print("\nerror per metre over walking's (median over seeds of each):")
     for name in configs:
         walk = np.median([x.error for x in scores[("walk", name)]])
@@ -288,6 +298,8 @@ def tune_height() -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", choices=sorted(SEEDS), default="report")
+    ap.add_argument("--field", action="store_true", help="the field scenarios with crawling "
+                    "and running instead of the gait set")
     ap.add_argument("--tune", action="store_true", help="choose the crawl levels (minutes)")
     ap.add_argument("--tune-height", action="store_true", help="choose the level-floor "
                     "parameters (minutes)")
@@ -297,7 +309,7 @@ def main() -> None:
     elif args.tune_height:
         tune_height()
     else:
-        report(SEEDS[args.seeds])
+        report(SEEDS[args.seeds], field=args.field)
 
 
 if __name__ == "__main__":

@@ -72,8 +72,10 @@ def data_dir() -> Path:
 #: The plugin's defaults before crawling got its own detector levels (the upright
 #: levels throughout), the level-floor height was held and steps settled into their
 #: stance (the "before" column): the same run shows what the changes did.
-BEFORE = ZuptInsParams(detector={"crawl": {"low": 6.6, "high": 8.7, "kappa": 0.25,
-                                           "prominence": 2.0, "min_stance": 0.04}},
+BEFORE = ZuptInsParams(detector={"high": 8.7,
+                                 "crawl": {"low": 6.6, "high": 8.7, "kappa": 0.25,
+                                           "prominence": 2.0, "min_stance": 0.04,
+                                           "smoothing": 0.0}},
                        height={"correction": False}, outputs={"step_settle": 0.0})
 
 
