@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/bench_ins_real_data.py            # tables + summary
     .venv/bin/python benchmarks/bench_ins_real_data.py --tune     # redo the detector tuning
+    .venv/bin/python benchmarks/bench_ins_real_data.py --heading  # odometry heading sigma
     .venv/bin/python benchmarks/bench_ins_real_data.py --xio DIR --zupt-fgo DIR/measData
                                                    # public recordings, where you have them
 
@@ -20,6 +21,12 @@ One configuration for everything: the plugin defaults. ``--tune`` repeats how th
 adaptive detector's defaults and the fixed detectors' default thresholds were chosen:
 on the even-numbered VICON trials only (sorted by name), then reports the held-out odd
 trials and the walks, which played no part in the choice.
+
+``--heading`` checks the heading uncertainty the odometry publishes against the heading
+drift of the indoor walks: the increments' heading variances summed as a consumer sums
+them, beside the drift (``simulator.recordings.heading_drift``, slope of the step
+headings' error) times the walk's duration; "now" with the lasting drift part
+(``odometry.yaw_drift_sigma`` 0.17 deg/s), "before" with the default (0: off).
 
 Options of the zupt-extension paper are measured on/off: retrospective correction
 (full-rate track: VICON ARMSE) and level-floor height correction (vertical error:
@@ -51,6 +58,8 @@ from firenav_plugins.estimators.zupt_ins.retro import correct_positions  # noqa:
 FLU = np.array([1.0, -1.0, -1.0])     # the datasets' z-down MicroStrain -> FLU
 RATE = 200.0
 N_ALIGN = 5                           # strides used to fit the walks' unknown start pose
+#: Indoor walks (file order) of the tuning half: 32, 34, 36, 38; 31, 33, 35, 37 are held out.
+WALK_TUNING = slice(1, None, 2)
 PYSHOE_SETTINGS = {"gravity": {"magnitude": 9.8029}}  # PyShoe's g; its filter noise = ours
 
 
@@ -63,8 +72,10 @@ def data_dir() -> Path:
 #: The plugin's defaults before crawling got its own detector levels (the upright
 #: levels throughout), the level-floor height was held and steps settled into their
 #: stance (the "before" column): the same run shows what the changes did.
-BEFORE = ZuptInsParams(detector={"crawl": {"low": 6.6, "high": 8.7, "kappa": 0.25,
-                                           "prominence": 2.0, "min_stance": 0.04}},
+BEFORE = ZuptInsParams(detector={"high": 8.7,
+                                 "crawl": {"low": 6.6, "high": 8.7, "kappa": 0.25,
+                                           "prominence": 2.0, "min_stance": 0.04,
+                                           "smoothing": 0.0}},
                        height={"correction": False}, outputs={"step_settle": 0.0})
 
 
@@ -408,9 +419,43 @@ def report_zupt_fgo(folder: Path) -> None:
         print(f"  {name:10s} right {right:.3f}, left {left:.3f} (published, their own alignment)")
 
 
+def heading_sigma(params: ZuptInsParams, w: IndoorWalk) -> tuple[float, float, float]:
+    """(duration [s], heading drift [deg/s], published heading sigma at the end [deg]) of
+    a walk: the odometry's heading variances summed over its steps."""
+    from firenav_framework.simulator.recordings import heading_drift
+    from firenav_plugins.estimators.zupt_ins.steps import StepTracker
+
+    res, pos = run(params, w.ts, w.imu)
+    fit = heading_drift(pos[w.stride_index, :2], w.gcp, w.ts[w.stride_index], n_align=N_ALIGN)
+    tracker = StepTracker(params.gait.thresholds(), params.odometry.errors())
+    steps = [tracker.step(ev) for ev in res.events]
+    return (steps[-1].t - steps[0].t_start, fit.drift_dps,
+            math.degrees(math.sqrt(sum(st.cov[3, 3] for st in steps))))
+
+
+def report_heading(walks: list[IndoorWalk]) -> None:
+    now, before = (ZuptInsParams(odometry={"yaw_drift_sigma": math.radians(0.17)}),
+                   ZuptInsParams())
+    print("| walk | half | duration [s] | drift [deg/s] | heading lost [deg] | published sigma "
+          "[deg] before / now | drift / sigma before / now |")
+    print("|---|---|---|---|---|---|---|")
+    z = []
+    for i, w in enumerate(walks):
+        dur, drift, sig = heading_sigma(now, w)
+        _, _, sig0 = heading_sigma(before, w)
+        lost = abs(drift) * dur
+        z.append(lost / sig)
+        half = "tuning" if i in range(len(walks))[WALK_TUNING] else "held out"
+        print(f"| {w.path.stem} | {half} | {dur:.0f} | {drift:+.3f} | {lost:.1f} | "
+              f"{sig0:.2f} / {sig:.1f} | {lost / sig0:.1f} / {lost / sig:.2f} |")
+    print(f"rms drift/sigma now {math.sqrt(np.mean(np.square(z))):.2f}, max {max(z):.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tune", action="store_true", help="redo the detector tuning (minutes)")
+    ap.add_argument("--heading", action="store_true", help="odometry heading sigma against "
+                    "the walks' heading drift")
     ap.add_argument("--xio", type=Path, help="folder of x-io Gait-Tracking's short_walk.csv "
                     "and long_walk.csv (the project's repository)")
     ap.add_argument("--zupt-fgo", type=Path, help="Constrained-ZUPT-FGO's measData folder")
@@ -426,7 +471,9 @@ def main() -> None:
         sys.exit(f"datasets not found at {root} (set FIRENAV_SHARED_DATA)")
     trials = [load_vicon_trial(p) for p in sorted((root / "pyshoe-vicon").glob("*.mat"))]
     walks = [load_indoor_walk(p) for p in sorted((root / "indoor-walks").glob("*.mat"))]
-    if args.tune:
+    if args.heading:
+        report_heading(walks)
+    elif args.tune:
         tune(trials, walks)
     else:
         report(trials, walks)

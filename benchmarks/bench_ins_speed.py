@@ -4,7 +4,9 @@
 
 Runs in one process, side by side on the same recordings:
 
-* ours — the numba engine (``InsEngine``), adaptive detector (default) and fixed SHOE;
+* ours — the numba engine (``InsEngine``), adaptive detector (default), the previous
+  round's defaults (``bench_ins_gaits.PREVIOUS``), fixed SHOE; default and previous on
+  the four crawl trials alone (the averaged crawl statistic costs only there);
 * ours through the plugin — ImuBlocks of 0.1 s into ``ZuptInsEstimator``, messages out;
 * the reference — the plain numpy/Python implementation kept in
   ``tests/ins/reference_ins.py`` (same algorithm), on a subset (it is slow), and the
@@ -28,6 +30,7 @@ import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
 
 from firenav_framework import ImuBlock  # noqa: E402
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
@@ -40,6 +43,8 @@ from tests.ins import reference_ins  # noqa: E402
 
 FLU = np.array([1.0, -1.0, -1.0])
 RATE = 200.0
+#: The VICON crawl trials are the session of this day (``vicon_motion``: all four).
+CRAWL_SESSION = "2018-02-22"
 
 
 def recordings() -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
@@ -79,11 +84,17 @@ def main() -> None:
     print(f"{len(recs)} recordings, {n_total} samples ({n_total / RATE / 60:.1f} min at 200 Hz)\n")
 
     rows = []
-    for name, params in (("ours, adaptive detector (default)", ZuptInsParams()),
-                         ("ours, fixed SHOE", ZuptInsParams(detector={"kind": "shoe"}))):
+    from bench_ins_gaits import PREVIOUS
+    crawls = [r for r in recs if r[0].startswith(CRAWL_SESSION)]
+    for name, params, runs in (
+            ("ours, adaptive detector (default)", ZuptInsParams(), recs),
+            ("ours, previous round's defaults", PREVIOUS, recs),
+            ("ours, fixed SHOE", ZuptInsParams(detector={"kind": "shoe"}), recs),
+            ("ours, default, the 4 crawls only", ZuptInsParams(), crawls),
+            ("ours, previous defaults, the 4 crawls only", PREVIOUS, crawls)):
         engine_run(params, *recs[0][1:])                       # compile / load the cache
-        cpu, wall = timed(lambda: [engine_run(params, *r[1:]) for r in recs])
-        rows.append((name, n_total, cpu, wall))
+        cpu, wall = timed(lambda: [engine_run(params, *r[1:]) for r in runs])
+        rows.append((name, sum(len(r[1]) for r in runs), cpu, wall))
 
     def through_plugin() -> None:
         comp, _, _ = make_component(ZuptInsEstimator, {})

@@ -96,7 +96,7 @@ def decide(s: np.ndarray, up: np.ndarray, cfg: DetectorConfig
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Zero-velocity flags, thresholds (log10) and gait modes of every sample."""
     n = len(s)
-    thr, mode = np.empty(n), np.zeros(n)
+    thr, mode, test = np.empty(n), np.zeros(n), s.copy()
     for d in range(n):
         if cfg.kind != detectors.ADAPTIVE:
             thr[d] = math.log10(cfg.threshold)
@@ -111,6 +111,9 @@ def decide(s: np.ndarray, up: np.ndarray, cfg: DetectorConfig
             mode[d] = detectors.MODE_CRAWL
             low, high = math.log10(cfg.crawl_low), math.log10(cfg.crawl_high)
             kappa, prominence = cfg.crawl_kappa, cfg.crawl_prominence
+            h = cfg.crawl_half
+            test[d] = math.log10(max(np.mean(10.0 ** s[max(0, d - h):min(d + h, n - 1) + 1]),
+                                     1e-300))
         else:
             low, high = math.log10(cfg.low), math.log10(cfg.high)
             kappa, prominence = cfg.kappa, cfg.prominence
@@ -118,7 +121,7 @@ def decide(s: np.ndarray, up: np.ndarray, cfg: DetectorConfig
             thr[d] = low
         else:
             thr[d] = min(max(floor + kappa * (swing - floor), low), high)
-    zv = s < thr
+    zv = test < thr
     # drop the samples of zero-velocity runs shorter than their mode's min_stance
     need = np.where(mode == detectors.MODE_CRAWL, cfg.crawl_min_stance, cfg.min_stance)
     edges = np.flatnonzero(np.diff(np.concatenate(([0], zv.astype(int), [0]))))

@@ -34,8 +34,12 @@ that of its swings far below a walking swing's. The detector recognises it by th
 attitude of the resting foot: when the mean specific force of the floor sample's window
 is gravity (within ``REST_GRAVITY``) and points more than the crawl tilt away from the
 IMU z axis (``up < crawl_up``), the threshold of that sample uses the crawl levels
-``crawl_low``, ``crawl_high``, ``crawl_kappa`` and ``crawl_prominence`` instead. The
-mode of each sample is handed on with its statistic.
+``crawl_low``, ``crawl_high``, ``crawl_kappa`` and ``crawl_prominence`` instead, and
+compares with it the mean of ``T`` over ``2 crawl_half + 1`` samples centred on the
+sample (log10 of the mean): a crawling swing glides, its rotation slowing and
+reversing, and ``T`` dips for a few tens of milliseconds as low as in a rocking stance;
+a stance stays low for longer. The mode of each sample is handed on with its (raw)
+statistic.
 
 Every detector finally drops zero-velocity runs shorter than ``min_stance`` samples
 (``crawl_min_stance`` for a sample in crawl mode):
@@ -97,6 +101,7 @@ class DetectorConfig(NamedTuple):
     crawl_kappa: float
     crawl_prominence: float
     crawl_min_stance: int   # shortest zero-velocity run kept while crawling [samples]
+    crawl_half: int         # adaptive, crawling: half-span of the averaged statistic [samples]
 
 
 def lookahead(cfg: DetectorConfig) -> int:
@@ -205,6 +210,18 @@ def _statistic(ring: np.ndarray, lo: int, hi: int, cfg: DetectorConfig) -> tuple
 
 
 @njit(cache=True)
+def _crawl_statistic(ring: np.ndarray, ist: np.ndarray, d: int, cfg: DetectorConfig) -> float:
+    """log10 of the mean T over samples d - crawl_half .. d + crawl_half (those computed)."""
+    m = ring.shape[0]
+    lo = max(0, d - cfg.crawl_half)
+    hi = min(d + cfg.crawl_half, ist[D_N_IN] - 1)
+    tot = 0.0
+    for j in range(lo, hi + 1):
+        tot += 10.0 ** ring[j % m, R_STAT]
+    return math.log10(max(tot / (hi - lo + 1), _TINY))
+
+
+@njit(cache=True)
 def _raw_decision(ring: np.ndarray, ist: np.ndarray, dq: np.ndarray, d: int,
                   cfg: DetectorConfig) -> None:
     """Threshold test of sample d (all statistics up to d + A pushed to the deques)."""
@@ -221,6 +238,7 @@ def _raw_decision(ring: np.ndarray, ist: np.ndarray, dq: np.ndarray, d: int,
             mode = MODE_CRAWL
             low, high = math.log10(cfg.crawl_low), math.log10(cfg.crawl_high)
             kappa, prominence = cfg.crawl_kappa, cfg.crawl_prominence
+            s = _crawl_statistic(ring, ist, d, cfg)
         else:
             low, high = math.log10(cfg.low), math.log10(cfg.high)
             kappa, prominence = cfg.kappa, cfg.prominence

@@ -44,14 +44,16 @@ class CrawlLevels(Params):
 
     low: float = param(5.5, unit="log10 T", description="SHOE statistic below which the "
                        "foot is surely still")
-    high: float = param(6.6, unit="log10 T", description="SHOE statistic above which the "
+    high: float = param(7.2, unit="log10 T", description="SHOE statistic above which the "
                         "foot surely moves")
-    kappa: float = param(0.2, gt=0, lt=1, description="threshold position between stance "
+    kappa: float = param(0.35, gt=0, lt=1, description="threshold position between stance "
                          "floor and swing level (log scale)")
     prominence: float = param(1.0, gt=0, unit="decades", description="swing level above "
                               "stance floor needed to call it a gait")
     min_stance: float = param(0.025, unit="s", ge=0, description="zero-velocity runs "
                               "shorter than this are dropped")
+    smoothing: float = param(0.15, unit="s", ge=0, description="the statistic is averaged "
+                             "over this span, centred (at most twice detector.ahead)")
 
     @model_validator(mode="after")
     def _levels(self) -> "CrawlLevels":
@@ -72,7 +74,7 @@ class Detector(Params):
                                     "when the statistic T is below this (default per detector)")
     low: float = param(6.6, unit="log10 T", description="adaptive: SHOE statistic below "
                        "which the foot is surely still")
-    high: float = param(8.7, unit="log10 T", description="adaptive: SHOE statistic above "
+    high: float = param(9.0, unit="log10 T", description="adaptive: SHOE statistic above "
                         "which the foot surely moves")
     kappa: float = param(0.25, gt=0, lt=1, description="adaptive: threshold position "
                          "between stance floor and swing level (log scale)")
@@ -209,13 +211,19 @@ class OdometryNoise(Params):
     """Errors the filter does not estimate, added to each step's covariance."""
 
     yaw_rate_sigma: AngularRate = param(0.05 * DEG, unit="rad/s", ge=0, description=(
-        "residual gyro bias, added to each step's heading variance as (sigma * step "
-        "duration)^2"))
+        "turn-rate error independent from step to step, added to each step's heading "
+        "variance as (sigma * step duration)^2"))
+    yaw_drift_sigma: AngularRate = param(0.0, unit="rad/s", ge=0, description=(
+        "spread of the heading drift rate that lasts the mission (residual and "
+        "vibration-rectified gyro bias): a step from t0 to t1 [s since navigation began] "
+        "adds sigma^2 (t1^2 - t0^2) to its heading variance, so the increments' summed "
+        "variance is (sigma t)^2"))
     length_sigma: float = param(0.02, ge=0, lt=1, description=(
         "relative step-length error added along each step's displacement covariance"))
 
     def errors(self) -> UnmodelledErrors:
-        return UnmodelledErrors(yaw_rate_sigma=self.yaw_rate_sigma, length_sigma=self.length_sigma)
+        return UnmodelledErrors(yaw_rate_sigma=self.yaw_rate_sigma,
+                                yaw_drift_sigma=self.yaw_drift_sigma, length_sigma=self.length_sigma)
 
 
 class Outputs(Params):
@@ -279,7 +287,8 @@ class ZuptInsParams(Params):
             min_stance=max(1, samples(d.min_stance)), crawl_up=math.cos(self.gait.crawl_tilt),
             crawl_low=10.0 ** d.crawl.low, crawl_high=10.0 ** d.crawl.high,
             crawl_kappa=d.crawl.kappa, crawl_prominence=d.crawl.prominence,
-            crawl_min_stance=max(1, samples(d.crawl.min_stance)))
+            crawl_min_stance=max(1, samples(d.crawl.min_stance)),
+            crawl_half=min(samples(d.crawl.smoothing) // 2, samples(d.ahead)))
 
     def filter_config(self, rate: float) -> eskf.FilterConfig:
         """Filter kernel configuration for an IMU at ``rate`` Hz."""
