@@ -81,6 +81,11 @@ class TagDatabase:
     def __len__(self) -> int:
         return len(self._tags)
 
+    @property
+    def free(self) -> np.ndarray:
+        """(len(sites),) bool: the sites no tag is associated with yet."""
+        return ~self._taken
+
     def lookup(self, tag_id: str) -> TagSite | None:
         """The site a tag was associated with, or None for an unknown tag."""
         i = self._tags.get(tag_id)

@@ -35,12 +35,15 @@ def deploy(building, w, doors, *, scale=1.0, rate=0.0, **params):
 @pytest.mark.parametrize("scale", [0.94, 1.0, 1.06])
 def test_the_door_passed_wins_over_its_close_neighbours(building, scale):
     """Along the corridor to d0_n1 (6.5, 8), with the step length 6 % off either way:
-    d0_stair is 1.6 m away, d0_s1 and d0_n2 about 4 m; the tag goes to d0_n1."""
+    d0_stair is 1.6 m away, d0_s1 and d0_n2 about 4 m; the tag goes to d0_n1 (when the
+    track's uncertainty leaves d0_stair a fair chance, tentatively, d0_n1 named first)."""
     w = walk([(13.5, 0.0), (13.5, 6.75), (6.5, 6.75), (6.5, 10.0)], stride=1.2)
     ekf, rec, tags = deploy(building, w, ["d0_n1"], scale=scale)
     assert ekf.tags.lookup(tags["d0_n1"]).id == "d0_n1"
-    assoc = [d for d in rec.on("diagnostics") if d.code == "tag_associated"]
-    assert len(assoc) == 1 and "-> d0_n1 (floor 0)" in assoc[0].text
+    assoc = [d for d in rec.on("diagnostics") if d.code in ("tag_associated", "tag_ambiguous")]
+    assert len(assoc) == 1
+    assert ("-> d0_n1 (floor 0)" in assoc[0].text if assoc[0].code == "tag_associated"
+            else "floor 0: d0_n1 " in assoc[0].text)
 
 
 def test_two_neighbouring_doors_tagged_in_a_row(building):

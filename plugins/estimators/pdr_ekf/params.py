@@ -11,7 +11,8 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from firenav_framework import Angle, Params, StartPose, param
+from firenav_framework import Angle, AngularRate, Params, StartPose, param
+from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import start_pose_type
 from .door_heading import DoorHeadingConfig
@@ -35,6 +36,13 @@ class Process(Params):
                                       "turned (1 sigma): a foot INS's heading error grows "
                                       "in turns and on stairs far beyond the gyro scale "
                                       "factor")
+    heading_rate_sigma: AngularRate = param(0.1 * DEG, unit="rad/s", ge=0, description=
+                                            "initial uncertainty of the heading "
+                                            "perturbation's rate omega (the vertical gyro "
+                                            "bias the INS leaves in; 0: the paper's "
+                                            "five-state filter)")
+    heading_rate_rw: float = param(0.0, unit="rad/s/sqrt(s)", ge=0, description="random "
+                                   "walk of omega (gyro bias instability)")
 
 
 class Height(Params):
@@ -112,6 +120,13 @@ class Rfid(Params):
     associate_gate: float | None = param(None, gt=0, description="a new tag is associated "
                                          "only with a site within this many sigma (null: "
                                          "always the least-cost free site)")
+    associate_confidence: float = param(0.9, gt=0, le=1, description="a new tag whose "
+                                        "most probable site has less probability is "
+                                        "tentative: corrected to it with a noise covering "
+                                        "the other candidates, "
+                                        "weighed again at every read (1: always; the "
+                                        "paper's least-cost association is any value "
+                                        "with rfid.gate null)")
     repeat_holdoff: float = param(15.0, unit="s", ge=0, description="a detection of the tag "
                                   "this agent last used, within this time, is not used again")
     max_wait: float = param(2.0, unit="s", gt=0, description="a tag event waits at most this "
@@ -165,6 +180,9 @@ class PdrEkfParams(Params):
     gait: Gait = param(Gait(), description="stride classes")
     rfid: Rfid = param(Rfid(), description="RFID tags")
     door_heading: DoorHeading = param(DoorHeading(), description="door-crossing heading (eq. 3)")
+    integrity: IntegrityParams = param(IntegrityParams(), description="when a pose is "
+                                       "trusted (protection radius within the alert limit, "
+                                       "no contradicting tag read pending)")
 
     def gait_config(self) -> GaitConfig:
         return GaitConfig(step_height=self.height.step_height, min_rise=self.gait.stair_min_rise,
