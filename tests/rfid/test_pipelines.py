@@ -8,7 +8,8 @@ from firenav_framework.evaluation.metrics import track_errors
 from firenav_framework.pipeline import load_pipeline
 from firenav_framework.runner import run_pipeline
 
-PIPELINES = ["rfid-ekf.yaml", "rfid-mems-baseline.yaml", "team.yaml"]
+PIPELINES = ["rfid-ekf.yaml", "rfid-mems-baseline.yaml", "team.yaml", "rfid-ekf-field.yaml",
+             "rfid-mems-field.yaml", "rfid-ekf-as-published.yaml"]
 
 
 @pytest.mark.parametrize("name", PIPELINES)

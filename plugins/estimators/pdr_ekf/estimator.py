@@ -45,11 +45,12 @@ from firenav_framework import (Estimator, Odometry, PerAgent, PoseEstimate, TagD
 from firenav_framework.building.tags import TagDatabase, TagSite
 from firenav_framework.geometry import rot2, wrap_angle
 from firenav_framework.integrity import gaussian_protection_radius, trusted
-from firenav_framework.messages import Message, Tick
+from firenav_framework.messages import Message, PressureHeight, Tick
 
 from ..odometry_input import accept_odometry
 from ..start_pose import entrance_of, entrance_start
 from .association import Candidates, site_weights, spread_about_best
+from .baro_floor import BaroFloor
 from .door_heading import HeadingWindow, door_heading_measurement
 from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter
 from .flight_tracker import FlightTracker
@@ -98,13 +99,14 @@ class _Agent:
     window_ready: bool = False
     last_tag: tuple[str, float] | None = None
     contradicted: bool = False        # a tag read contradicted the track, none agreed since
+    baro: BaroFloor | None = None
 
 
 class PdrEkfEstimator(Estimator):
     """RFID/MEMS extended Kalman filter: [E, N, Z, step scale, heading perturbation], tags on doors."""
 
     name = "pdr_ekf"
-    inputs = (Odometry, TagDetection, TagDeployment)
+    inputs = (Odometry, TagDetection, TagDeployment, PressureHeight)
     outputs = {"pose": PoseEstimate}
     needs_building = True
     Params = PdrEkfParams
@@ -123,6 +125,7 @@ class PdrEkfEstimator(Estimator):
         self._door = params.door_heading.config()
         self._tentative: dict[str, Candidates] = {}     # tag id -> candidate sites
         self._site_pos = np.zeros((0, 3))
+        self._floor_levels = np.zeros(0)
 
     def start(self) -> None:
         building = self.ctx.building
@@ -136,6 +139,7 @@ class PdrEkfEstimator(Estimator):
         self._site_pos = np.array([self._site_z(s) for s in self.tags.sites]).reshape(-1, 3)
         self._stairs = StairFlights(building, self.params.height.stair_zone or 1.0)
         self._levels = snap_levels(building)
+        self._floor_levels = np.array([f.z for f in building.floors])
         if self.params.start.mode == "entrance":
             entrance_of(building, self.params.start.entrance)   # fail now, clearly, if none
 
@@ -149,6 +153,8 @@ class PdrEkfEstimator(Estimator):
                 self._cycle(agent, st, msg.t)
         elif isinstance(msg, Odometry):
             self._odometry(msg)
+        elif isinstance(msg, PressureHeight):
+            self._pressure_height(msg)
         elif isinstance(msg, (TagDetection, TagDeployment)):
             if not self.params.rfid.enabled:
                 return
@@ -290,6 +296,31 @@ class PdrEkfEstimator(Estimator):
             self.ctx.count("stair_strides_retracted")
         st.last_dz = counted
         return dz, var
+
+    def _pressure_height(self, msg: PressureHeight) -> None:
+        """A barometer height: the height follows it, offset removed, except on a flight
+        of the stair map (:mod:`.baro_floor`)."""
+        p = self.params.barometer
+        st = self.state[msg.agent]
+        if not p.enabled or st.filt is None:
+            return
+        if not (math.isfinite(msg.t) and math.isfinite(msg.height)):
+            self.ctx.count("bad_pressure_heights")
+            return
+        if st.baro is None:
+            st.baro = BaroFloor(p.config())
+        z, var = st.baro.update(msg.t, float(msg.height), self._floor_levels)
+        self.ctx.count("pressure_heights")
+        if st.flights is not None and st.flights.on_stairs:
+            return
+        now = self._now(st)
+        if self._floor(z) != self._floor(now[2]):
+            self.ctx.count("baro_floor_corrections")
+            self.ctx.report(msg.t, "baro_floor", "barometer floor corrections (the stairs "
+                            f"said otherwise), last at ({now[0]:.1f}, {now[1]:.1f}): height "
+                            f"{now[2]:.2f} m -> {z:.2f} m, floor {self._floor(z)}",
+                            agent=msg.agent, key=msg.agent, level="info")
+        st.filt.set_height(z - st.acc_dz, var)
 
     # -- start -------------------------------------------------------------------------
     def _initialise(self, agent: str, st: _Agent, first: Odometry) -> None:

@@ -15,6 +15,7 @@ from firenav_framework import Angle, AngularRate, Params, StartPose, param
 from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import start_pose_type
+from .baro_floor import BaroConfig
 from .door_heading import DoorHeadingConfig
 from .flight_tracker import FlightConfig
 from .gait import GaitConfig
@@ -122,11 +123,11 @@ class Rfid(Params):
                                          "always the least-cost free site)")
     associate_confidence: float = param(0.9, gt=0, le=1, description="a new tag whose "
                                         "most probable site has less probability is "
-                                        "tentative: corrected to it with a noise covering "
-                                        "the other candidates, "
-                                        "weighed again at every read (1: always; the "
-                                        "paper's least-cost association is any value "
-                                        "with rfid.gate null)")
+                                        "tentative: corrected to that site with a noise "
+                                        "covering the other candidates, and weighed "
+                                        "again at every read until one site has this "
+                                        "probability (a tiny value: the paper's "
+                                        "least-cost association, always resolved)")
     repeat_holdoff: float = param(15.0, unit="s", ge=0, description="a detection of the tag "
                                   "this agent last used, within this time, is not used again")
     max_wait: float = param(2.0, unit="s", gt=0, description="a tag event waits at most this "
@@ -160,6 +161,29 @@ class DoorHeading(Params):
                                  max_discrepancy=self.max_discrepancy)
 
 
+class Barometer(Params):
+    """The height from a barometer's PressureHeight, where one is fitted (baro_floor.py)."""
+
+    enabled: bool = param(True, description="use PressureHeight messages when they arrive")
+    gate: float = param(1.2, unit="m", gt=0, description="the offset is learnt on a level "
+                        "only when the barometer (offset removed) is this near a floor's "
+                        "level (a storey is 3-3.5 m)")
+    window: float = param(4.0, unit="s", gt=0, description="span of barometer heights "
+                          "that tells walking on a level")
+    still_range: float = param(0.5, unit="m", gt=0, description="on a level: the heights "
+                               "of the window span less than this")
+    offset_sigma: float = param(1.0, unit="m", gt=0, description="initial 1-sigma of the "
+                                "barometer's offset (zeroing, indoor pressure)")
+    offset_rw: float = param(0.01, unit="m/sqrt(s)", ge=0, description="random walk of the "
+                             "offset (doors, fire, ventilation)")
+    noise: float = param(0.15, unit="m", gt=0, description="short-term noise of one report")
+
+    def config(self) -> BaroConfig:
+        return BaroConfig(gate=self.gate, window=self.window, still_range=self.still_range,
+                          offset_sigma=self.offset_sigma, offset_rw=self.offset_rw,
+                          noise=self.noise)
+
+
 #: The start is placed when the walk begins: at the entrance by default, the foot pointing
 #: inward, 0.5 m and 10 deg uncertain (foot mounting yaw, alignment).
 DEFAULT_START = StartPose(mode="entrance", sigma_position=0.5, sigma_heading=10 * DEG)
@@ -180,6 +204,7 @@ class PdrEkfParams(Params):
     gait: Gait = param(Gait(), description="stride classes")
     rfid: Rfid = param(Rfid(), description="RFID tags")
     door_heading: DoorHeading = param(DoorHeading(), description="door-crossing heading (eq. 3)")
+    barometer: Barometer = param(Barometer(), description="floor from a barometer")
     integrity: IntegrityParams = param(IntegrityParams(), description="when a pose is "
                                        "trusted (protection radius within the alert limit, "
                                        "no contradicting tag read pending)")
