@@ -647,10 +647,11 @@ class PdrEkfEstimator(Estimator):
                           f"{math.degrees(math.sqrt(m.var)):.1f} deg", agent=agent)
 
     def _floor_snap(self, st: _Agent) -> None:
-        """A flight just ended: a height near a floor level or landing is set to it."""
+        """A flight just ended: a height near a floor level or landing is set to it
+        (not with a barometer: it knows the level better)."""
         st.snap = False
-        if self.params.height.floor_snap <= 0 or not len(self._levels):
-            return
+        if self.params.height.floor_snap <= 0 or not len(self._levels) or st.baro is not None:
+            return                # a barometer decides the level (_pressure_height)
         z = float(st.filt.x[I_Z])
         level = float(self._levels[np.argmin(np.abs(self._levels - z))])
         if abs(level - z) <= self.params.height.floor_snap:
