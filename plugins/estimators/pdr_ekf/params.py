@@ -37,7 +37,7 @@ class Process(Params):
                                       "turned (1 sigma): a foot INS's heading error grows "
                                       "in turns and on stairs far beyond the gyro scale "
                                       "factor")
-    heading_rate_sigma: AngularRate = param(0.1 * DEG, unit="rad/s", ge=0, description=
+    heading_rate_sigma: AngularRate = param(0.2 * DEG, unit="rad/s", ge=0, description=
                                             "initial uncertainty of the heading "
                                             "perturbation's rate omega (the vertical gyro "
                                             "bias the INS leaves in; 0: the paper's "
@@ -99,8 +99,9 @@ class Rfid(Params):
 
     enabled: bool = param(True, description="use tags (false: MEMS alone, the paper's "
                           "baseline)")
-    sigma: float = param(0.5, unit="m", gt=0, description="horizontal distance of the reader "
-                         "from the tag's site at the strongest read (1 sigma)")
+    sigma: float = param(0.8, unit="m", gt=0, description="horizontal distance of the reader "
+                         "from the tag's site at the strongest read (1 sigma), with the "
+                         "plan's error of the door's place")
     sigma_z: float = param(0.1, unit="m", gt=0, description="height of the agent at a tag "
                            "site vs. its floor level (1 sigma)")
     level_gate: float | None = param(1.0, unit="m", gt=0, description="a tag read farther "
