@@ -42,14 +42,14 @@ import yaml
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from benchmarks.bench_rfid_ekf import TAG_STREAMS, parse_seeds, tag_times  # noqa: E402
 from firenav_framework.evaluation.metrics import integrity_figures, track_errors  # noqa: E402
 from firenav_framework.pipeline import load_pipeline_text  # noqa: E402
-from firenav_framework.runner import Runner  # noqa: E402
+from tests.rfid.harness import run_tapped  # noqa: E402
 
 PIPES = REPO / "pipelines"
 CALIBRATED = {"alignment": {"gyro_bias": True, "duration": 5.0}}
 ROWS = ["ins", "mems", "paper", "firenav"]
-TAG_STREAMS = ("rfid.detections", "rfid.deployments")
 
 
 def _ekf_params(pipeline: str, component: str) -> dict:
@@ -158,28 +158,12 @@ class Tally:
 def run_seed(scenario: str, seed: int, variants: dict, tally: Tally) -> float:
     spec = load_pipeline_text(pipeline_text(scenario, seed, variants),
                               file=f"<bench-rfid-report {scenario} {seed}>")
-    runner = Runner(spec)
-    reads: dict[str, list[float]] = defaultdict(list)
-    build = runner.build
-
-    def build_and_tap():
-        build()
-        runner.bus.taps.append(lambda s, m: reads[m.agent].append(m.t)
-                               if s in TAG_STREAMS else None)
-    runner.build = build_and_tap
     t0 = time.monotonic()
-    result = runner.run()
+    result, seen = run_tapped(spec, TAG_STREAMS)
     if result.faults:
         print(f"  seed {seed}: {len(result.faults)} faults: {result.faults[0]}", file=sys.stderr)
-    tally.add(result, reads, ROWS + list(variants))
+    tally.add(result, tag_times(seen), ROWS + list(variants))
     return time.monotonic() - t0
-
-
-def parse_seeds(text: str) -> list[int]:
-    if "-" in text:
-        a, b = text.split("-")
-        return list(range(int(a), int(b) + 1))
-    return [int(s) for s in text.split(",")]
 
 
 def parse_variant(text: str) -> tuple[str, dict]:

@@ -65,7 +65,8 @@ def simulated_strides(scenario: str, seed: int, imu_errors: str | None = None):
     import yaml
 
     from firenav_framework.pipeline import load_pipeline_text
-    from firenav_framework.runner import Runner
+
+    from .harness import run_tapped
 
     sim = {"id": "sim", "plugin": "simulator", "scenario": str(scenario), "seed": seed}
     if imu_errors:
@@ -75,13 +76,5 @@ def simulated_strides(scenario: str, seed: int, imu_errors: str | None = None):
         "sensors": [{"id": "imu", "plugin": "foot_imu", "input": "sim.imu"}],
         "estimators": [{"id": "ins", "plugin": "zupt_ins", "input": "imu.imu"}],
         "sinks": []}), file=f"<strides {scenario} {seed}>")
-    runner = Runner(spec)
-    odometry = []
-    build = runner.build
-
-    def build_and_tap():
-        build()
-        runner.bus.taps.append(lambda s, m: odometry.append(m) if s == "ins.odometry" else None)
-    runner.build = build_and_tap
-    result = runner.run()
-    return sorted(odometry, key=lambda m: m.t), result.truth, result.building
+    result, seen = run_tapped(spec, ("ins.odometry",))
+    return sorted(seen["ins.odometry"], key=lambda m: m.t), result.truth, result.building
