@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from firenav_framework.building import bundled_plan, load_building
+from firenav_framework.evaluation.metrics import floor_right
 from firenav_framework.testing import make_component
 from firenav_plugins.estimators.pdr_ekf import PdrEkfEstimator
 
@@ -104,29 +105,29 @@ def test_no_pose_is_trusted_while_far_off_and_the_flag_means_it(building):
     assert trusted[:5].all()                     # and trusted at the start, next to the door
 
 
-@pytest.mark.parametrize("seed", [100, 105])
-def test_a_barometer_keeps_the_floor_without_a_stair_map(seed):
+def test_a_barometer_keeps_the_floor_without_a_stair_map():
     """The RFID route up two floors and back with a consumer IMU and no still start
     (tests/rfid/data/rfid_consumer_baro.yaml), no stair map (the paper's counted
-    stairs): the INS's counted stairs put the agent on the wrong floor for a fifth or a
-    quarter of the walk on these tuning seeds. With a worn barometer (weather, indoor
-    offset, stairwell pressure: tests/rfid/baro_sim.py) the floor is right >= 99.5 %
-    of the time (the issue's goal), beside the same filter without it."""
-    odo, truth, building = simulated_strides(DATA / "rfid_consumer_baro.yaml", seed)
-    baro = baro_heights(truth["ff1"], "ff1", np.random.default_rng(seed))
-    params = {"rfid": {"enabled": False}, "height": {"stair_zone": None}}
-    levels = np.array([f.z for f in building.floors])
-    right = {}
-    for name, extra in (("none", []), ("baro", baro)):
-        _, rec, counts = run(building, odo + extra, **params)
-        poses = [p for p in rec.on("pose") if p.agent == "ff1"]
-        t = np.array([p.t for p in poses])
-        floor = np.array([p.floor for p in poses])
-        z = np.interp(t, truth["ff1"].t, truth["ff1"].position[:, 2])
-        true_floor = np.array([building.floor_of_z(v) for v in z])
-        on_level = np.isclose(z[:, None], levels[None, :], atol=0.05).any(axis=1)
-        ok = np.where(on_level, floor == true_floor, np.abs(floor - true_floor) <= 1)
-        right[name] = float(ok.mean())
-    assert counts["pressure_heights"] == len(baro)
-    assert right["none"] < 0.9
-    assert right["baro"] >= 0.995
+    stairs), tuning seeds 100 and 105: the INS's counted stairs put the agent on the
+    wrong floor for over a quarter of the walk. With a worn barometer (weather, indoor
+    offset, stairwell pressure: tests/rfid/baro_sim.py) the floor is right >= 99.5 % of
+    the time pooled (the issue's goal) and >= 99 % in each run, beside the same filter
+    without it, counted as ``firenav evaluate`` does."""
+    right = {"none": [], "baro": []}
+    for seed in (100, 105):
+        odo, truth, building = simulated_strides(DATA / "rfid_consumer_baro.yaml", seed)
+        baro = baro_heights(truth["ff1"], "ff1", np.random.default_rng(seed))
+        levels = np.array([f.z for f in building.floors])
+        for name, extra in (("none", []), ("baro", baro)):
+            _, rec, counts = run(building, odo + extra, rfid={"enabled": False},
+                                 height={"stair_zone": None})
+            poses = [p for p in rec.on("pose") if p.agent == "ff1"]
+            t = np.array([p.t for p in poses])
+            z = np.interp(t, truth["ff1"].t, truth["ff1"].position[:, 2])
+            right[name].append(floor_right(np.array([p.floor for p in poses]),
+                                           np.array([building.floor_of_z(v) for v in z]),
+                                           z, levels))
+        assert counts["pressure_heights"] == len(baro)
+    assert all(np.nanmean(r) < 0.75 for r in right["none"])
+    assert all(np.nanmean(r) >= 0.99 for r in right["baro"])
+    assert np.nanmean(np.concatenate(right["baro"])) >= 0.995
