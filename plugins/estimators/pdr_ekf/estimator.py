@@ -453,8 +453,8 @@ class PdrEkfEstimator(Estimator):
         return ", ".join(f"{self.tags.sites[cands.sites[k]].id} {100 * cands.weights[k]:.0f} %"
                          for k in order)
 
-    def _reweigh(self, agent: str, st: _Agent, t: float, tag_id: str,
-                 pos: np.ndarray, cov: np.ndarray) -> tuple[TagSite, Candidates | None]:
+    def _reweigh(self, agent: str, t: float, tag_id: str, pos: np.ndarray,
+                 cov: np.ndarray) -> tuple[TagSite, Candidates | None]:
         """A read of a tentative tag by ``agent`` at ``t``: its candidates weighed with the
         reader's estimate ``pos`` (3,), ``cov`` (2, 2); the tag is re-associated when
         another site becomes the probable one. The tag's site and the candidates left
@@ -505,21 +505,22 @@ class PdrEkfEstimator(Estimator):
         pos, cov, since = self._position_at(st, msg.t)
         cands = None
         if msg.tag_id in self._tentative:
-            site, cands = self._reweigh(agent, st, msg.t, msg.tag_id, pos, cov)
-        elif p.rfid.gate is not None and self._beyond_gate(st, site, pos, cov):
-            site = self._contradiction(agent, st, msg.t, msg.tag_id, site, pos, cov)
+            site, cands = self._reweigh(agent, msg.t, msg.tag_id, pos, cov)
+        elif p.rfid.gate is not None and self._beyond_gate(site, pos, cov):
+            site = self._contradiction(agent, msg.t, msg.tag_id, site, pos, cov)
         if self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=p.rfid.gate,
                                  candidates=cands):
             self._open_window(st, site, msg.t)
             st.last_tag = (msg.tag_id, msg.t)
 
-    def _beyond_gate(self, st: _Agent, site: TagSite, pos: np.ndarray, cov: np.ndarray) -> bool:
+    def _beyond_gate(self, site: TagSite, pos: np.ndarray, cov: np.ndarray) -> bool:
+        """Whether ``site`` is beyond ``rfid.gate`` from the estimate ``pos``, ``cov``."""
         p = self.params
         d = self._site_z(site)[:2] - pos[:2]
         S = cov + np.eye(2) * p.rfid.sigma ** 2
         return float(d @ np.linalg.solve(S, d)) > p.rfid.gate ** 2
 
-    def _contradiction(self, agent: str, st: _Agent, t: float, tag_id: str, site: TagSite,
+    def _contradiction(self, agent: str, t: float, tag_id: str, site: TagSite,
                        pos: np.ndarray, cov: np.ndarray) -> TagSite:
         """A read of a known tag far beyond the gate from ``agent``'s estimate: either the
         track drifted or the tag sits elsewhere than the database says. When the track
