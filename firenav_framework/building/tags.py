@@ -99,6 +99,12 @@ class TagDatabase:
         self._bind(tag_id, i)
         return self.sites[i]
 
+    def forget(self, tag_id: str) -> None:
+        """Drop a tag's association (its site is free again); unknown ids are ignored."""
+        i = self._tags.pop(tag_id, None)
+        if i is not None:
+            self._taken[i] = False
+
     def _bind(self, tag_id: str, i: int) -> None:
         old = self._tags.get(tag_id)
         if old is not None:

@@ -18,7 +18,7 @@ reaches ``confidence`` (the tag is then re-associated to it if that is another s
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -31,37 +31,56 @@ MIN_WEIGHT = 1e-3
 @dataclass
 class Candidates:
     """The sites a tentative tag may be on: ``sites`` (indices into the tag database's
-    sites) and their probabilities ``weights`` (sum 1)."""
+    sites), their probabilities at the deployment ``prior`` (sum 1), who deployed it,
+    and the evidence of every read since: per agent, the summed log-likelihood of each
+    candidate (kept per agent so that a reset of one firefighter forgets its part)."""
 
     sites: np.ndarray
-    weights: np.ndarray
+    prior: np.ndarray
+    deployer: str = ""
+    evidence: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def weights(self) -> np.ndarray:
+        """Probabilities (sum 1) of the candidates after all the reads."""
+        log_w = np.log(self.prior) + sum(self.evidence.values(), np.zeros(len(self.sites)))
+        if not np.isfinite(log_w).any():
+            return self.prior
+        w = np.exp(log_w - np.max(log_w))
+        return w / w.sum()
 
     def best(self) -> tuple[int, float]:
         """(site index, probability) of the most probable candidate."""
-        k = int(np.argmax(self.weights))
-        return int(self.sites[k]), float(self.weights[k])
+        w = self.weights
+        k = int(np.argmax(w))
+        return int(self.sites[k]), float(w[k])
 
-    def combine(self, costs: np.ndarray) -> Candidates:
-        """The candidates after one more read with squared Mahalanobis distances ``costs``
-        (over all sites of the database; inf: impossible). A read that fits none of them
-        leaves them as they were."""
+    def add(self, agent: str, costs: np.ndarray) -> None:
+        """One more read by ``agent`` with squared Mahalanobis distances ``costs`` (over
+        all sites of the database; inf: impossible). A read that fits none of the
+        candidates teaches nothing."""
         c = costs[self.sites]
-        like = np.exp(-0.5 * (c - np.min(c))) if np.isfinite(c).any() else np.zeros(len(c))
-        w = self.weights * like
-        if not w.sum() > 0:
-            return self
-        return _pruned(self.sites, w)
+        if not np.isfinite(c).any():
+            return
+        log_like = -0.5 * (c - np.min(c))
+        self.evidence[agent] = self.evidence.get(agent, np.zeros(len(self.sites))) + log_like
+
+    def forget(self, agent: str) -> None:
+        """Drop what ``agent``'s reads said."""
+        self.evidence.pop(agent, None)
 
 
-def site_weights(costs: np.ndarray, free: np.ndarray) -> Candidates | None:
-    """Probabilities of the free sites (bool mask ``free``) from their squared Mahalanobis
-    distances ``costs`` (inf: not on the floor). None when no free site has a finite cost."""
+def site_weights(costs: np.ndarray, free: np.ndarray, deployer: str = "") -> Candidates | None:
+    """The free sites (bool mask ``free``) as candidates with probabilities from their
+    squared Mahalanobis distances ``costs`` (inf: not on the floor); those under
+    ``MIN_WEIGHT`` are dropped. None when no free site has a finite cost."""
     c = np.where(free, costs, np.inf)
     if not np.isfinite(c).any():
         return None
     w = np.exp(-0.5 * (c - np.min(c)))
-    idx = np.flatnonzero(w > 0)
-    return _pruned(idx, w[idx])
+    w = w / w.sum()
+    idx = np.flatnonzero(w >= MIN_WEIGHT)
+    return Candidates(idx, w[idx] / w[idx].sum(), deployer)
 
 
 def spread_about_best(positions: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -73,9 +92,3 @@ def spread_about_best(positions: np.ndarray, weights: np.ndarray) -> tuple[np.nd
     best = positions[int(np.argmax(w))]
     d = positions[:, :2] - best[:2]
     return best, (w[:, None] * d).T @ d
-
-
-def _pruned(sites: np.ndarray, w: np.ndarray) -> Candidates:
-    w = w / w.sum()
-    keep = w >= MIN_WEIGHT
-    return Candidates(np.asarray(sites)[keep], w[keep] / w[keep].sum())

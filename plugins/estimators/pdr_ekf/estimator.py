@@ -144,7 +144,15 @@ class PdrEkfEstimator(Estimator):
             entrance_of(building, self.params.start.entrance)   # fail now, clearly, if none
 
     def reset(self, agent: str) -> None:
+        """Forget ``agent``: its state, what its reads said of tentative tags, and the
+        tentative tags it deployed (its resolved tags stay on their doors for the
+        others)."""
         self.state.reset(agent)
+        for tag_id, cands in list(self._tentative.items()):
+            cands.forget(agent)
+            if cands.deployer == agent:
+                del self._tentative[tag_id]
+                self.tags.forget(tag_id)
 
     # -- input ---------------------------------------------------------------------------
     def handle(self, stream: str, msg: Message) -> None:
@@ -418,7 +426,7 @@ class PdrEkfEstimator(Estimator):
             costs = self.tags.costs(pos, floor, sigma)
             free = self.tags.free
             free[self._site_index(site)] = True
-            cands = site_weights(costs, free)
+            cands = site_weights(costs, free, agent)
             dist = float(np.hypot(*(site.position[:2] - pos[:2])))
             best = cands.best()[1] if cands is not None else 1.0
             if best < p.rfid.associate_confidence:
@@ -464,7 +472,8 @@ class PdrEkfEstimator(Estimator):
         costs = self.tags.costs(pos, None, cov + np.eye(2) * p.rfid.sigma ** 2)
         open_ = self.tags.free
         open_[self._site_index(site)] = True          # other tags' sites are not candidates
-        cands = self._tentative[tag_id].combine(np.where(open_, costs, np.inf))
+        cands = self._tentative[tag_id]
+        cands.add(agent, np.where(open_, costs, np.inf))
         i, w = cands.best()
         if self.tags.sites[i].id != site.id:
             self._reassociate(agent, t, tag_id, site, self.tags.sites[i], pos, w)
@@ -473,7 +482,6 @@ class PdrEkfEstimator(Estimator):
             del self._tentative[tag_id]
             self.ctx.count("tags_resolved")
             return site, None
-        self._tentative[tag_id] = cands
         return site, cands
 
     def _reassociate(self, agent: str, t: float, tag_id: str, old: TagSite, new: TagSite,
@@ -550,7 +558,8 @@ class PdrEkfEstimator(Estimator):
         z = self._site_z(site)
         Rm = np.diag([p.rfid.sigma ** 2, p.rfid.sigma ** 2, p.rfid.sigma_z ** 2])
         if candidates is not None:
-            _, spread = spread_about_best(self._site_pos[candidates.sites], candidates.weights)
+            _, spread = spread_about_best(self._site_pos[candidates.sites],
+                                          candidates.weights)
             Rm[:2, :2] += spread
         D, dz, C = since
         self._tag_level(agent, st, t, site, z[2], dz)
