@@ -42,11 +42,16 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from firenav_framework.evaluation.metrics import track_errors
-from firenav_framework.pipeline import load_pipeline_text
-from firenav_framework.runner import Runner
-from firenav_framework.simulator.scenario import SCENARIO_DIR
-from firenav_plugins.estimators.pdr_ekf.height import snap_levels
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from firenav_framework.evaluation.metrics import track_errors  # noqa: E402
+from firenav_framework.pipeline import load_pipeline_text  # noqa: E402
+from firenav_framework.simulator.scenario import SCENARIO_DIR  # noqa: E402
+from firenav_plugins.estimators.pdr_ekf.height import snap_levels  # noqa: E402
+from tests.rfid.harness import run_tapped  # noqa: E402
+
+TAG_STREAMS = ("rfid.detections", "rfid.deployments")
 
 #: The paper's figures (rfid-mems-ekf, "Performance assessment", Fig. 4-5).
 PAPER = {"hybrid p90 at tags": "< 5 m (90 % of planimetric errors)",
@@ -149,21 +154,21 @@ class Tally:
 def run_seed(scenario: Path, seed: int, ins_name: str, tally: Tally) -> float:
     spec = load_pipeline_text(pipeline_text(scenario, seed, INS[ins_name]),
                               file=f"<bench seed {seed}>")
-    runner = Runner(spec)
-    events: dict[str, list[float]] = defaultdict(list)
-    build = runner.build
-
-    def build_and_tap():
-        build()
-        runner.bus.taps.append(lambda s, m: events[m.agent].append(m.t)
-                               if s in ("rfid.detections", "rfid.deployments") else None)
-    runner.build = build_and_tap
     t0 = time.monotonic()
-    result = runner.run()
+    result, seen = run_tapped(spec, TAG_STREAMS)
     if result.faults:
         print(f"  seed {seed}: {len(result.faults)} faults: {result.faults[0]}", file=sys.stderr)
-    tally.add_run(ins_name, result, events)
+    tally.add_run(ins_name, result, tag_times(seen))
     return time.monotonic() - t0
+
+
+def tag_times(seen: dict) -> dict[str, list[float]]:
+    """Times [s] of every agent's tag events (detections and deployments)."""
+    events: dict[str, list[float]] = defaultdict(list)
+    for stream in TAG_STREAMS:
+        for m in seen.get(stream, []):
+            events[m.agent].append(m.t)
+    return events
 
 
 def parse_seeds(text: str) -> list[int]:

@@ -81,6 +81,11 @@ class TagDatabase:
     def __len__(self) -> int:
         return len(self._tags)
 
+    @property
+    def free(self) -> np.ndarray:
+        """(len(sites),) bool: the sites no tag is associated with yet."""
+        return ~self._taken
+
     def lookup(self, tag_id: str) -> TagSite | None:
         """The site a tag was associated with, or None for an unknown tag."""
         i = self._tags.get(tag_id)
@@ -93,6 +98,12 @@ class TagDatabase:
         i = self._by_id[site_id]
         self._bind(tag_id, i)
         return self.sites[i]
+
+    def forget(self, tag_id: str) -> None:
+        """Drop a tag's association (its site is free again); unknown ids are ignored."""
+        i = self._tags.pop(tag_id, None)
+        if i is not None:
+            self._taken[i] = False
 
     def _bind(self, tag_id: str, i: int) -> None:
         old = self._tags.get(tag_id)

@@ -35,12 +35,15 @@ def deploy(building, w, doors, *, scale=1.0, rate=0.0, **params):
 @pytest.mark.parametrize("scale", [0.94, 1.0, 1.06])
 def test_the_door_passed_wins_over_its_close_neighbours(building, scale):
     """Along the corridor to d0_n1 (6.5, 8), with the step length 6 % off either way:
-    d0_stair is 1.6 m away, d0_s1 and d0_n2 about 4 m; the tag goes to d0_n1."""
+    d0_stair is 1.6 m away, d0_s1 and d0_n2 about 4 m; the tag goes to d0_n1 (when the
+    track's uncertainty leaves d0_stair a fair chance, tentatively, d0_n1 named first)."""
     w = walk([(13.5, 0.0), (13.5, 6.75), (6.5, 6.75), (6.5, 10.0)], stride=1.2)
     ekf, rec, tags = deploy(building, w, ["d0_n1"], scale=scale)
     assert ekf.tags.lookup(tags["d0_n1"]).id == "d0_n1"
-    assoc = [d for d in rec.on("diagnostics") if d.code == "tag_associated"]
-    assert len(assoc) == 1 and "-> d0_n1 (floor 0)" in assoc[0].text
+    assoc = [d for d in rec.on("diagnostics") if d.code in ("tag_associated", "tag_ambiguous")]
+    assert len(assoc) == 1
+    assert ("-> d0_n1 (floor 0)" in assoc[0].text if assoc[0].code == "tag_associated"
+            else "floor 0: d0_n1 " in assoc[0].text)
 
 
 def test_two_neighbouring_doors_tagged_in_a_row(building):
@@ -85,10 +88,11 @@ def test_the_floor_comes_from_the_height(building):
 def test_the_deploying_agent_is_corrected_and_later_agents_use_the_tag(building):
     """ff1's step length is 15 % long, so its estimate is over a metre off at the door;
     the deployment pulls it towards the door (weighted by the tag and track
-    uncertainties). ff2 (another agent of the same estimator, i.e. the same database)
-    reads the tag later and is corrected by it."""
+    uncertainties: the tag's pinned at 0.5 m here, a read right at the door; the default
+    also covers plans whose doors are a metre off). ff2 (another agent of the same
+    estimator, i.e. the same database) reads the tag later and is corrected by it."""
     w = walk([(13.5, 0.0), (13.5, 6.75), (16.5, 6.75), (16.5, 10.0)], stride=1.2)
-    ekf, rec, tags = deploy(building, w, ["d0_n3"], scale=1.15)
+    ekf, rec, tags = deploy(building, w, ["d0_n3"], scale=1.15, rfid={"sigma": 0.5})
     poses = [p for p in rec.on("pose") if p.agent == "ff1"]
     t_dep = closest_passes(w, {"d": (16.5, 8.0)})[0][0]
     before = [p for p in poses if p.t <= t_dep][-1]

@@ -13,15 +13,23 @@ The pipeline of the RFID/MEMS paper (rfid-mems-ekf):
 * **Deployment** (``TagDeployment``): the new tag is associated with the most probable
   free tag site of the building by the distance cost of the tag database
   (:class:`~firenav_framework.building.tags.TagDatabase`, "RFID and Database"), and the
-  deploying agent's position is corrected to it. The database is one per estimator: the
-  tags of the first team serve every later agent of the run.
-* **Detection** (``TagDetection``): the tag's site is a 3-D position update.
+  deploying agent's position is corrected to it. When no site is probable enough the tag
+  is tentative and the correction to it is weakened by the other candidates (:mod:`.association`).
+  The database is one per estimator: the tags of the first team serve every later agent
+  of the run.
+* **Detection** (``TagDetection``): the tag's site is a 3-D position update. A read of a
+  tentative tag weighs its candidates again; a read that contradicts the track (beyond
+  ``rfid.gate``) is re-associated to a free site the track is at, else it re-locates the
+  track with a widened covariance (or is refused); either way the pose is not trusted
+  until a tag agrees with the track again.
 * After a deployment or a detection at a door (or stair end), the next strides give the
   door-crossing heading update of eq. 3 (:mod:`.door_heading`).
 
 Ports: ``pose`` (PoseEstimate at the time of the last stride integrated, covariance from
-P over E, N, Z and the heading perturbation, ``floor`` from Z) and ``diagnostics``
-(tag associations, rejected tags and door updates, unknown tags).
+P over E, N, Z and the heading perturbation, ``floor`` from Z, ``protection_radius`` from
+P's horizontal block, ``trusted`` from it and the contradiction flag) and ``diagnostics``
+(tag associations, re-associations, contradictions, rejected tags and door updates,
+unknown tags).
 """
 from __future__ import annotations
 
@@ -36,10 +44,13 @@ from firenav_framework import (Estimator, Odometry, PerAgent, PoseEstimate, TagD
                                TagDetection)
 from firenav_framework.building.tags import TagDatabase, TagSite
 from firenav_framework.geometry import rot2, wrap_angle
-from firenav_framework.messages import Message, Tick
+from firenav_framework.integrity import gaussian_protection_radius, trusted
+from firenav_framework.messages import Message, PressureHeight, Tick
 
 from ..odometry_input import accept_odometry
 from ..start_pose import entrance_of, entrance_start
+from .association import Candidates, site_weights, spread_about_best
+from .baro_floor import BaroFloor
 from .door_heading import HeadingWindow, door_heading_measurement
 from .filter import I_DTHETA, I_LAMBDA, I_Z, PdrFilter
 from .flight_tracker import FlightTracker
@@ -87,13 +98,15 @@ class _Agent:
     window: HeadingWindow | None = None
     window_ready: bool = False
     last_tag: tuple[str, float] | None = None
+    contradicted: bool = False        # a tag read contradicted the track, none agreed since
+    baro: BaroFloor | None = None
 
 
 class PdrEkfEstimator(Estimator):
     """RFID/MEMS extended Kalman filter: [E, N, Z, step scale, heading perturbation], tags on doors."""
 
     name = "pdr_ekf"
-    inputs = (Odometry, TagDetection, TagDeployment)
+    inputs = (Odometry, TagDetection, TagDeployment, PressureHeight)
     outputs = {"pose": PoseEstimate}
     needs_building = True
     Params = PdrEkfParams
@@ -110,6 +123,9 @@ class PdrEkfEstimator(Estimator):
         self._stairs: StairFlights | None = None
         self._levels = np.zeros(0)
         self._door = params.door_heading.config()
+        self._tentative: dict[str, Candidates] = {}     # tag id -> candidate sites
+        self._site_pos = np.zeros((0, 3))
+        self._floor_levels = np.zeros(0)
 
     def start(self) -> None:
         building = self.ctx.building
@@ -120,13 +136,23 @@ class PdrEkfEstimator(Estimator):
             except KeyError as exc:
                 sites = ", ".join(s.id for s in self.tags.sites[:8])
                 raise ValueError(f"rfid.surveyed: {exc.args[0]} (sites look like: {sites}, ...)") from None
+        self._site_pos = np.array([self._site_z(s) for s in self.tags.sites]).reshape(-1, 3)
         self._stairs = StairFlights(building, self.params.height.stair_zone or 1.0)
         self._levels = snap_levels(building)
+        self._floor_levels = np.array([f.z for f in building.floors])
         if self.params.start.mode == "entrance":
             entrance_of(building, self.params.start.entrance)   # fail now, clearly, if none
 
     def reset(self, agent: str) -> None:
+        """Forget ``agent``: its state, what its reads said of tentative tags, and the
+        tentative tags it deployed (its resolved tags stay on their doors for the
+        others)."""
         self.state.reset(agent)
+        for tag_id, cands in list(self._tentative.items()):
+            cands.forget(agent)
+            if cands.deployer == agent:
+                del self._tentative[tag_id]
+                self.tags.forget(tag_id)
 
     # -- input ---------------------------------------------------------------------------
     def handle(self, stream: str, msg: Message) -> None:
@@ -135,6 +161,8 @@ class PdrEkfEstimator(Estimator):
                 self._cycle(agent, st, msg.t)
         elif isinstance(msg, Odometry):
             self._odometry(msg)
+        elif isinstance(msg, PressureHeight):
+            self._pressure_height(msg)
         elif isinstance(msg, (TagDetection, TagDeployment)):
             if not self.params.rfid.enabled:
                 return
@@ -277,6 +305,31 @@ class PdrEkfEstimator(Estimator):
         st.last_dz = counted
         return dz, var
 
+    def _pressure_height(self, msg: PressureHeight) -> None:
+        """A barometer height: the height follows it, offset removed, except on a flight
+        of the stair map (:mod:`.baro_floor`)."""
+        p = self.params.barometer
+        st = self.state[msg.agent]
+        if not p.enabled or st.filt is None:
+            return
+        if not (math.isfinite(msg.t) and math.isfinite(msg.height)):
+            self.ctx.count("bad_pressure_heights")
+            return
+        if st.baro is None:
+            st.baro = BaroFloor(p.config())
+        z, var = st.baro.update(msg.t, float(msg.height), self._floor_levels)
+        self.ctx.count("pressure_heights")
+        if st.flights is not None and st.flights.on_stairs:
+            return
+        now = self._now(st)
+        if self._floor(z) != self._floor(now[2]):
+            self.ctx.count("baro_floor_corrections")
+            self.ctx.report(msg.t, "baro_floor", "barometer floor corrections (the stairs "
+                            f"said otherwise), last at ({now[0]:.1f}, {now[1]:.1f}): height "
+                            f"{now[2]:.2f} m -> {z:.2f} m, floor {self._floor(z)}",
+                            agent=msg.agent, key=msg.agent, level="info")
+        st.filt.set_height(z - st.acc_dz, var)
+
     # -- start -------------------------------------------------------------------------
     def _initialise(self, agent: str, st: _Agent, first: Odometry) -> None:
         """Place the odometry frame in the building (start pose, psi0) and start the filter."""
@@ -295,9 +348,10 @@ class PdrEkfEstimator(Estimator):
             st.psi0 = wrap_angle(ent.heading - foot0)
             if p.door_heading.at_entrance:
                 window = HeadingWindow(f"entrance {ent.id}", ent.heading, False, first.t_start)
-        x0 = np.array([start[0], start[1], start[2], 1.0, 0.0])
+        x0 = np.array([start[0], start[1], start[2], 1.0, 0.0, 0.0])
         P0 = np.diag([p.start.sigma_position ** 2, p.start.sigma_position ** 2, 0.05 ** 2,
-                      p.process.scale_sigma ** 2, p.start.sigma_heading ** 2])
+                      p.process.scale_sigma ** 2, p.start.sigma_heading ** 2,
+                      p.process.heading_rate_sigma ** 2])
         st.filt = PdrFilter(x0, P0)
         st.gait = GaitClassifier(p.gait_config())
         if p.height.stair_zone is not None and p.height.source == "stairs" and len(self._stairs):
@@ -317,7 +371,8 @@ class PdrEkfEstimator(Estimator):
         dt = max(0.0, t - st.t_cycle)
         st.filt.predict(st.acc_d, st.acc_dz, st.acc_cov, st.acc_var_z,
                         var_lambda=p.process.scale_rw ** 2 * dt,
-                        var_dtheta=p.process.heading_rw ** 2 * dt + (p.process.heading_turn_noise * st.acc_turn) ** 2)
+                        var_dtheta=p.process.heading_rw ** 2 * dt + (p.process.heading_turn_noise * st.acc_turn) ** 2,
+                        dt=dt, var_omega=p.process.heading_rate_rw ** 2 * dt)
         st.acc_d, st.acc_cov = np.zeros(2), np.zeros((2, 2))
         st.acc_dz = st.acc_var_z = st.acc_turn = 0.0
         st.t_cycle = max(st.t_cycle, t)
@@ -346,15 +401,17 @@ class PdrEkfEstimator(Estimator):
         return pos, cov, (D, dz, C)
 
     def _deployment(self, agent: str, st: _Agent, msg: TagDeployment) -> None:
-        """Associate a new tag with the most probable door (distance cost), then correct."""
+        """Associate a new tag with the most probable door (distance cost), then correct;
+        a tag no door is probable enough for is tentative (:mod:`.association`)."""
         p = self.params
         pos, cov, since = self._position_at(st, msg.t)
         floor = self._floor(pos[2])
         known = self.tags.lookup(msg.tag_id)
         why = "no tag site close enough"
+        cands = None
+        sigma = cov + np.eye(2) * p.rfid.sigma ** 2
         try:
-            site = self.tags.associate(msg.tag_id, pos, floor,
-                                       sigma=cov + np.eye(2) * p.rfid.sigma ** 2,
+            site = self.tags.associate(msg.tag_id, pos, floor, sigma=sigma,
                                        gate=p.rfid.associate_gate)
         except LookupError as exc:
             site, why = None, str(exc)
@@ -366,14 +423,76 @@ class PdrEkfEstimator(Estimator):
             return
         if known is None:
             self.ctx.count("tags_associated")
+            costs = self.tags.costs(pos, floor, sigma)
+            free = self.tags.free
+            free[self._site_index(site)] = True
+            cands = site_weights(costs, free, agent)
             dist = float(np.hypot(*(site.position[:2] - pos[:2])))
-            self.ctx.diagnose(msg.t, "info", "tag_associated",
-                              f"tag {msg.tag_id} -> {site.id} (floor {site.floor}), "
-                              f"{dist:.1f} m from {agent}'s estimate", agent=agent)
+            best = cands.best()[1] if cands is not None else 1.0
+            if best < p.rfid.associate_confidence:
+                self._tentative[msg.tag_id] = cands
+                self.ctx.count("tags_tentative")
+                self.ctx.diagnose(msg.t, "info", "tag_ambiguous",
+                                  f"tag {msg.tag_id} deployed by {agent} near ({pos[0]:.1f}, "
+                                  f"{pos[1]:.1f}) on floor {floor}: {self._describe(cands)}; "
+                                  f"tentatively {site.id}", agent=agent)
+            else:
+                cands = None
+                self.ctx.diagnose(msg.t, "info", "tag_associated",
+                                  f"tag {msg.tag_id} -> {site.id} (floor {site.floor}), "
+                                  f"{dist:.1f} m from {agent}'s estimate ({100 * best:.0f} %)",
+                                  agent=agent)
         if p.rfid.correct_on_deploy:
-            self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=None)
+            self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=None,
+                                  candidates=cands)
         self._open_window(st, site, msg.t)
         st.last_tag = (msg.tag_id, msg.t)
+
+    def _site_index(self, site: TagSite) -> int:
+        return next(i for i, s in enumerate(self.tags.sites) if s.id == site.id)
+
+    def _site_z(self, site: TagSite) -> np.ndarray:
+        """The position update's measurement of a site: E, N and its floor level [m]."""
+        return np.array([site.position[0], site.position[1],
+                         self.ctx.building.floors[site.floor].z])
+
+    def _describe(self, cands: Candidates) -> str:
+        order = np.argsort(-cands.weights)[:3]
+        return ", ".join(f"{self.tags.sites[cands.sites[k]].id} {100 * cands.weights[k]:.0f} %"
+                         for k in order)
+
+    def _reweigh(self, agent: str, t: float, tag_id: str, pos: np.ndarray,
+                 cov: np.ndarray) -> tuple[TagSite, Candidates | None]:
+        """A read of a tentative tag by ``agent`` at ``t``: its candidates weighed with the
+        reader's estimate ``pos`` (3,), ``cov`` (2, 2); the tag is re-associated when
+        another site becomes the probable one. The tag's site and the candidates left
+        (None: resolved)."""
+        p = self.params
+        site = self.tags.lookup(tag_id)
+        costs = self.tags.costs(pos, None, cov + np.eye(2) * p.rfid.sigma ** 2)
+        open_ = self.tags.free
+        open_[self._site_index(site)] = True          # other tags' sites are not candidates
+        cands = self._tentative[tag_id]
+        cands.add(agent, np.where(open_, costs, np.inf))
+        i, w = cands.best()
+        if self.tags.sites[i].id != site.id:
+            self._reassociate(agent, t, tag_id, site, self.tags.sites[i], pos, w)
+            site = self.tags.sites[i]
+        if w >= p.rfid.associate_confidence:
+            del self._tentative[tag_id]
+            self.ctx.count("tags_resolved")
+            return site, None
+        return site, cands
+
+    def _reassociate(self, agent: str, t: float, tag_id: str, old: TagSite, new: TagSite,
+                     pos: np.ndarray, weight: float) -> None:
+        self.tags.assign(tag_id, new.id)
+        self.ctx.count("tags_reassociated")
+        self.ctx.diagnose(t, "warning", "tag_reassociated",
+                          f"tag {tag_id} read by {agent} at ({pos[0]:.1f}, {pos[1]:.1f}) "
+                          f"floor {self._floor(pos[2])}: moved from {old.id} ({old.position[0]:.1f}, "
+                          f"{old.position[1]:.1f}) to {new.id} ({new.position[0]:.1f}, "
+                          f"{new.position[1]:.1f}), {100 * weight:.0f} %", agent=agent)
 
     def _detection(self, agent: str, st: _Agent, msg: TagDetection) -> None:
         p = self.params
@@ -391,38 +510,86 @@ class PdrEkfEstimator(Estimator):
         if not st.history.covers(msg.t) and math.isfinite(st.t_odo) and msg.t < st.t_odo:
             self.ctx.count("tag_events_too_old")
             return
-        _, _, since = self._position_at(st, msg.t)
-        if self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=p.rfid.gate):
+        pos, cov, since = self._position_at(st, msg.t)
+        cands = None
+        if msg.tag_id in self._tentative:
+            site, cands = self._reweigh(agent, msg.t, msg.tag_id, pos, cov)
+        elif p.rfid.gate is not None and self._beyond_gate(site, pos, cov):
+            site = self._contradiction(agent, msg.t, msg.tag_id, site, pos, cov)
+        if self._position_update(agent, st, msg.t, msg.tag_id, site, since, gate=p.rfid.gate,
+                                 candidates=cands):
             self._open_window(st, site, msg.t)
             st.last_tag = (msg.tag_id, msg.t)
 
-    def _position_update(self, agent: str, st: _Agent, t: float, tag_id: str, site: TagSite,
-                         since: tuple, gate: float | None) -> bool:
-        """Eq. "RFID Positioning": the site's E, N and its floor level for Z."""
+    def _beyond_gate(self, site: TagSite, pos: np.ndarray, cov: np.ndarray) -> bool:
+        """Whether ``site`` is beyond ``rfid.gate`` from the estimate ``pos``, ``cov``."""
         p = self.params
-        z = np.array([site.position[0], site.position[1],
-                      self.ctx.building.floors[site.floor].z])
+        d = self._site_z(site)[:2] - pos[:2]
+        S = cov + np.eye(2) * p.rfid.sigma ** 2
+        return float(d @ np.linalg.solve(S, d)) > p.rfid.gate ** 2
+
+    def _contradiction(self, agent: str, t: float, tag_id: str, site: TagSite,
+                       pos: np.ndarray, cov: np.ndarray) -> TagSite:
+        """A read of a known tag far beyond the gate from ``agent``'s estimate: either the
+        track drifted or the tag sits elsewhere than the database says. When the track
+        is trusted (its protection radius within the alert limit) and a free site is
+        the probable place of the read, the tag is re-associated there; otherwise the
+        tag's site stands (and the update re-locates or refuses)."""
+        p = self.params
+        radius = gaussian_protection_radius(cov, p.integrity.containment)
+        if radius <= p.integrity.alert_limit and tag_id not in p.rfid.surveyed:
+            sigma = cov + np.eye(2) * p.rfid.sigma ** 2
+            costs = self.tags.costs(pos, self._floor(pos[2]), sigma)
+            cands = site_weights(costs, self.tags.free)
+            if cands is not None:
+                i, w = cands.best()
+                if costs[i] <= p.rfid.gate ** 2 and w >= p.rfid.associate_confidence:
+                    new = self.tags.sites[i]
+                    self._reassociate(agent, t, tag_id, site, new, pos, w)
+                    return new
+        return site
+
+    def _position_update(self, agent: str, st: _Agent, t: float, tag_id: str, site: TagSite,
+                         since: tuple, gate: float | None,
+                         candidates: Candidates | None = None) -> bool:
+        """Eq. "RFID Positioning": the site's E, N and its floor level for Z; for a
+        tentative tag the candidates' spread about its site added to R."""
+        p = self.params
+        z = self._site_z(site)
         Rm = np.diag([p.rfid.sigma ** 2, p.rfid.sigma ** 2, p.rfid.sigma_z ** 2])
+        if candidates is not None:
+            _, spread = spread_about_best(self._site_pos[candidates.sites],
+                                          candidates.weights)
+            Rm[:2, :2] += spread
         D, dz, C = since
         self._tag_level(agent, st, t, site, z[2], dz)
         relocate = p.rfid.relocate_heading_sigma if p.rfid.on_gate == "relocate" else None
         res = st.filt.update_position(z, Rm, D, dz, C, gate=gate, relocate=relocate)
+        place = f"({z[0]:.1f}, {z[1]:.1f}) floor {site.floor}"
         if res.relocated:
+            st.contradicted = True
             self.ctx.count("tag_relocations")
             self.ctx.diagnose(t, "warning", "tag_relocation",
-                              f"tag {tag_id} at {site.id} is {np.hypot(*res.innovation[:2]):.1f} m "
-                              f"from {agent}'s estimate ({math.sqrt(res.nis):.1f} sigma): "
-                              "the track had drifted; re-located at the tag", agent=agent)
+                              f"tag {tag_id} at {site.id} {place} is "
+                              f"{np.hypot(*res.innovation[:2]):.1f} m from {agent}'s estimate "
+                              f"({math.sqrt(res.nis):.1f} sigma): the track had drifted; "
+                              "re-located at the tag, not trusted until a tag agrees",
+                              agent=agent)
         if res.applied:
             self.ctx.count("tag_updates")
+            if not res.relocated and candidates is None:
+                st.contradicted = False
             if site.kind == "stair" and st.flights is not None:
                 self._stair_end(agent, st, t, site, float(z[2]))
             return True
+        st.contradicted = True
         self.ctx.count("tag_updates_rejected")
         self.ctx.diagnose(t, "warning", "tag_rejected",
-                          f"tag {tag_id} at {site.id} is {np.hypot(*res.innovation[:2]):.1f} m "
-                          f"from {agent}'s estimate ({math.sqrt(res.nis):.1f} sigma): not used "
-                          "(a duplicated tag id, or a wrong association?)", agent=agent)
+                          f"tag {tag_id} at {site.id} {place} is "
+                          f"{np.hypot(*res.innovation[:2]):.1f} m from {agent}'s estimate "
+                          f"({math.sqrt(res.nis):.1f} sigma): not used (a duplicated tag id, "
+                          "or a wrong association?); not trusted until a tag agrees",
+                          agent=agent)
         return False
 
     def _stair_end(self, agent: str, st: _Agent, t: float, site: TagSite, level: float) -> None:
@@ -490,10 +657,11 @@ class PdrEkfEstimator(Estimator):
                           f"{math.degrees(math.sqrt(m.var)):.1f} deg", agent=agent)
 
     def _floor_snap(self, st: _Agent) -> None:
-        """A flight just ended: a height near a floor level or landing is set to it."""
+        """A flight just ended: a height near a floor level or landing is set to it
+        (not with a barometer: it knows the level better)."""
         st.snap = False
-        if self.params.height.floor_snap <= 0 or not len(self._levels):
-            return
+        if self.params.height.floor_snap <= 0 or not len(self._levels) or st.baro is not None:
+            return                # a barometer decides the level (_pressure_height)
         z = float(st.filt.x[I_Z])
         level = float(self._levels[np.argmin(np.abs(self._levels - z))])
         if abs(level - z) <= self.params.height.floor_snap:
@@ -507,10 +675,12 @@ class PdrEkfEstimator(Estimator):
         x, P = st.filt.x, st.filt.P
         idx = [0, 1, 2, I_DTHETA]
         cov = P[np.ix_(idx, idx)].copy()
+        radius = gaussian_protection_radius(cov[:2, :2], self.params.integrity.containment)
         self.ctx.publish("pose", PoseEstimate(
             t=st.t_odo, agent=agent, device=st.device, position=x[:3].copy(),
             heading=wrap_angle(st.walk_dir + x[I_DTHETA]), cov=cov,
-            floor=self._floor(x[I_Z])))
+            floor=self._floor(x[I_Z]), protection_radius=radius,
+            trusted=trusted(radius, self.params.integrity, st.contradicted)))
         st.t_published = st.t_odo
 
     def _floor(self, z: float) -> int:

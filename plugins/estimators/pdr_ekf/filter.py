@@ -1,11 +1,14 @@
 """The extended Kalman filter of the RFID/MEMS paper (rfid-mems-ekf, "Hybridisation").
 
-State (eq. 1), building frame, SI units::
+State (eq. 1 and a heading rate), building frame, SI units::
 
-    x = [E, N, Z, lambda, dtheta]
+    x = [E, N, Z, lambda, dtheta, omega]
 
 E, N, Z [m] the agent's position (Z at floor level, the feet), ``lambda`` the scale factor
-of the MEMS step length [-], ``dtheta`` the MEMS heading perturbation [rad].
+of the MEMS step length [-], ``dtheta`` the MEMS heading perturbation [rad] and ``omega``
+its rate [rad/s]: the vertical gyro bias a foot INS cannot see (zero-velocity updates do
+not observe yaw), left in when no still start calibrated it. The paper's filter is the
+first five states (``omega`` held at zero by a zero initial variance).
 
 Process model (eq. 2), written with our heading convention (radians counter-clockwise
 from east; the paper's compass heading swaps sin and cos)::
@@ -13,6 +16,7 @@ from east; the paper's compass heading swaps sin and cos)::
     E' = E + lambda * s * cos(theta + dtheta)
     N' = N + lambda * s * sin(theta + dtheta)
     Z' = Z + dZ
+    dtheta' = dtheta + omega * dt
 
 with ``s`` and ``theta`` the MEMS step length and heading. Over several steps between two
 synchronous updates the displacement is ``lambda * R(dtheta) @ D`` with ``D`` the sum of
@@ -32,10 +36,11 @@ import numpy as np
 
 from firenav_framework.geometry import rot2, wrap_angle
 
-__all__ = ["I_E", "I_N", "I_Z", "I_LAMBDA", "I_DTHETA", "PdrFilter", "Update", "drot2"]
+__all__ = ["I_E", "I_N", "I_Z", "I_LAMBDA", "I_DTHETA", "I_OMEGA", "N_STATE", "PdrFilter",
+           "Update", "drot2"]
 
-I_E, I_N, I_Z, I_LAMBDA, I_DTHETA = range(5)
-N_STATE = 5
+I_E, I_N, I_Z, I_LAMBDA, I_DTHETA, I_OMEGA = range(6)
+N_STATE = 6
 
 
 def drot2(a: float) -> np.ndarray:
@@ -57,37 +62,44 @@ class Update:
 
 
 class PdrFilter:
-    """State (5,) and covariance (5, 5) of one agent, with eq. 2 prediction and updates."""
+    """State (6,) and covariance (6, 6) of one agent, with eq. 2 prediction and updates."""
 
     def __init__(self, x0: np.ndarray, P0: np.ndarray):
         x0 = np.asarray(x0, float)
         P0 = np.asarray(P0, float)
         if x0.shape != (N_STATE,) or P0.shape != (N_STATE, N_STATE):
-            raise ValueError(f"state must be (5,) and covariance (5, 5), got {x0.shape}, {P0.shape}")
+            raise ValueError(f"state must be ({N_STATE},) and covariance ({N_STATE}, {N_STATE}), "
+                             f"got {x0.shape}, {P0.shape}")
         self.x = x0.copy()
         self.P = P0.copy()
 
     # -- process model (eq. 2) ---------------------------------------------------------
     def predict(self, D: np.ndarray, dz: float, C_D: np.ndarray, var_z: float,
-                var_lambda: float, var_dtheta: float) -> None:
+                var_lambda: float, var_dtheta: float, dt: float = 0.0,
+                var_omega: float = 0.0) -> None:
         """Move by the MEMS displacement ``D`` (2,) [m] (sum of the steps since the last
         update, building frame before the heading perturbation) and height change ``dz``
-        [m]. ``C_D`` (2, 2) [m^2] is the covariance of ``D``; ``var_z`` [m^2] that of
-        ``dz``; ``var_lambda`` and ``var_dtheta`` [rad^2] the random-walk growth of the
-        scale factor and heading perturbation over the interval.
+        [m], then let the heading perturbation run at ``omega`` for ``dt`` [s]. ``C_D``
+        (2, 2) [m^2] is the covariance of ``D``; ``var_z`` [m^2] that of ``dz``;
+        ``var_lambda``, ``var_dtheta`` [rad^2] and ``var_omega`` [rad^2/s^2] the
+        random-walk growth of the scale factor, heading perturbation and its rate over
+        the interval.
         """
         lam, dth = self.x[I_LAMBDA], self.x[I_DTHETA]
         R, dR = rot2(dth), drot2(dth)
         self.x[:2] += lam * (R @ D)
         self.x[I_Z] += dz
+        self.x[I_DTHETA] = wrap_angle(dth + self.x[I_OMEGA] * dt)
         F = np.eye(N_STATE)
         F[:2, I_LAMBDA] = R @ D
         F[:2, I_DTHETA] = lam * (dR @ D)
+        F[I_DTHETA, I_OMEGA] = dt
         Q = np.zeros((N_STATE, N_STATE))
         Q[:2, :2] = lam ** 2 * (R @ C_D @ R.T)
         Q[I_Z, I_Z] = var_z
         Q[I_LAMBDA, I_LAMBDA] = var_lambda
         Q[I_DTHETA, I_DTHETA] = var_dtheta
+        Q[I_OMEGA, I_OMEGA] = var_omega
         self.P = F @ self.P @ F.T + Q
         self._symmetrise()
 

@@ -11,9 +11,11 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from firenav_framework import Angle, Params, StartPose, param
+from firenav_framework import Angle, AngularRate, Params, StartPose, param
+from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import start_pose_type
+from .baro_floor import BaroConfig
 from .door_heading import DoorHeadingConfig
 from .flight_tracker import FlightConfig
 from .gait import GaitConfig
@@ -35,6 +37,13 @@ class Process(Params):
                                       "turned (1 sigma): a foot INS's heading error grows "
                                       "in turns and on stairs far beyond the gyro scale "
                                       "factor")
+    heading_rate_sigma: AngularRate = param(0.2 * DEG, unit="rad/s", ge=0, description=
+                                            "initial uncertainty of the heading "
+                                            "perturbation's rate omega (the vertical gyro "
+                                            "bias the INS leaves in; 0: the paper's "
+                                            "five-state filter)")
+    heading_rate_rw: float = param(0.0, unit="rad/s/sqrt(s)", ge=0, description="random "
+                                   "walk of omega (gyro bias instability)")
 
 
 class Height(Params):
@@ -90,8 +99,9 @@ class Rfid(Params):
 
     enabled: bool = param(True, description="use tags (false: MEMS alone, the paper's "
                           "baseline)")
-    sigma: float = param(0.5, unit="m", gt=0, description="horizontal distance of the reader "
-                         "from the tag's site at the strongest read (1 sigma)")
+    sigma: float = param(0.8, unit="m", gt=0, description="horizontal distance of the reader "
+                         "from the tag's site at the strongest read (1 sigma), with the "
+                         "plan's error of the door's place")
     sigma_z: float = param(0.1, unit="m", gt=0, description="height of the agent at a tag "
                            "site vs. its floor level (1 sigma)")
     level_gate: float | None = param(1.0, unit="m", gt=0, description="a tag read farther "
@@ -112,6 +122,13 @@ class Rfid(Params):
     associate_gate: float | None = param(None, gt=0, description="a new tag is associated "
                                          "only with a site within this many sigma (null: "
                                          "always the least-cost free site)")
+    associate_confidence: float = param(0.9, gt=0, le=1, description="a new tag whose "
+                                        "most probable site has less probability is "
+                                        "tentative: corrected to that site with a noise "
+                                        "covering the other candidates, and weighed "
+                                        "again at every read until one site has this "
+                                        "probability (a tiny value: the paper's "
+                                        "least-cost association, always resolved)")
     repeat_holdoff: float = param(15.0, unit="s", ge=0, description="a detection of the tag "
                                   "this agent last used, within this time, is not used again")
     max_wait: float = param(2.0, unit="s", gt=0, description="a tag event waits at most this "
@@ -145,6 +162,29 @@ class DoorHeading(Params):
                                  max_discrepancy=self.max_discrepancy)
 
 
+class Barometer(Params):
+    """The height from a barometer's PressureHeight, where one is fitted (baro_floor.py)."""
+
+    enabled: bool = param(True, description="use PressureHeight messages when they arrive")
+    gate: float = param(1.2, unit="m", gt=0, description="the offset is learnt on a level "
+                        "only when the barometer (offset removed) is this near a floor's "
+                        "level (a storey is 3-3.5 m)")
+    window: float = param(4.0, unit="s", gt=0, description="span of barometer heights "
+                          "that tells walking on a level")
+    still_range: float = param(0.5, unit="m", gt=0, description="on a level: the heights "
+                               "of the window span less than this")
+    offset_sigma: float = param(1.0, unit="m", gt=0, description="initial 1-sigma of the "
+                                "barometer's offset (zeroing, indoor pressure)")
+    offset_rw: float = param(0.01, unit="m/sqrt(s)", ge=0, description="random walk of the "
+                             "offset (doors, fire, ventilation)")
+    noise: float = param(0.15, unit="m", gt=0, description="short-term noise of one report")
+
+    def config(self) -> BaroConfig:
+        return BaroConfig(gate=self.gate, window=self.window, still_range=self.still_range,
+                          offset_sigma=self.offset_sigma, offset_rw=self.offset_rw,
+                          noise=self.noise)
+
+
 #: The start is placed when the walk begins: at the entrance by default, the foot pointing
 #: inward, 0.5 m and 10 deg uncertain (foot mounting yaw, alignment).
 DEFAULT_START = StartPose(mode="entrance", sigma_position=0.5, sigma_heading=10 * DEG)
@@ -165,6 +205,10 @@ class PdrEkfParams(Params):
     gait: Gait = param(Gait(), description="stride classes")
     rfid: Rfid = param(Rfid(), description="RFID tags")
     door_heading: DoorHeading = param(DoorHeading(), description="door-crossing heading (eq. 3)")
+    barometer: Barometer = param(Barometer(), description="floor from a barometer")
+    integrity: IntegrityParams = param(IntegrityParams(), description="when a pose is "
+                                       "trusted (protection radius within the alert limit, "
+                                       "no contradicting tag read pending)")
 
     def gait_config(self) -> GaitConfig:
         return GaitConfig(step_height=self.height.step_height, min_rise=self.gait.stair_min_rise,
