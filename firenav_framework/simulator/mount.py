@@ -15,6 +15,12 @@ few millimetres and degrees (foot frame, FLU):
   sole point under the IMU, and springs back in the swing;
 * **sole shear**: the braking and then propulsive ground force shifts the upper over
   the outsole backward, then forward, by up to ``shear_mm``;
+* **pivot slide**: a foot that turns on the floor (a tight curve: the loaded shoe
+  pivots on the ball of the foot or the heel) carries the IMU a few centimetres across
+  the floor while it is nearly still; modelled as a slow horizontal shift per ground
+  contact, of random direction and ``pivot_slide_mm`` rms per radian the foot turned
+  since the contact before, growing over the contact like the flex and springing back
+  in the swing (the turn itself stays in the swing);
 * **postural sway**: a standing person sways; the IMU sees it as a slow random
   rotation of ``sway_dps`` rms rate (band 0.2-2 Hz).
 
@@ -75,6 +81,10 @@ class MountConfig(BaseModel):
     shear_mm: float = Field(2.5, ge=0, le=20, description="fore-aft shift of the upper over "
                             "the outsole under the braking and propulsive ground force "
                             "(peak) [mm]")
+    pivot_slide_mm: float = Field(0.0, ge=0, le=100, description="rms horizontal shift "
+                                  "of the IMU over one ground contact per radian the foot "
+                                  "turned since the last contact (the shoe pivoting on the "
+                                  "floor) [mm/rad]")
     sway_dps: float = Field(0.3, ge=0, le=5, description="rms angular rate of postural "
                             "sway seen by the IMU [deg/s], 0.2-2 Hz")
     rock_deg: float = Field(4.2, ge=0, le=20, description="on all fours: how far the shoe, "
@@ -182,6 +192,34 @@ def sway_angles(n: int, fs: float, rms_dps: float, rng: np.random.Generator) -> 
     return x * (np.radians(rms_dps) / np.sqrt(np.mean(rate ** 2, axis=0)))
 
 
+def contact_index(contact: np.ndarray) -> np.ndarray:
+    """(N,) index of the current ground contact (in the air: the last one), from 0 at
+    the first; -1 before it."""
+    on = np.asarray(contact, bool)
+    starts = on & ~np.concatenate([[False], on[:-1]])
+    return np.cumsum(starts) - 1
+
+
+def pivot_slides(kin: FootKinematics, config: MountConfig, rng: np.random.Generator
+                 ) -> np.ndarray:
+    """(N, 3) pivot slide of every sample at full size (foot frame) [m]: per contact a
+    random horizontal vector of ``pivot_slide_mm`` rms (per axis / sqrt 2) per radian of
+    the yaw turned since the contact before."""
+    cid = contact_index(kin.contact)
+    n_contacts = int(cid.max()) + 1 if len(cid) else 0
+    out = np.zeros((len(cid), 3))
+    if config.pivot_slide_mm == 0.0 or n_contacts < 2:
+        return out
+    first = np.searchsorted(cid, np.arange(n_contacts))
+    turn = np.abs(np.diff(kin.euler[first, 0], prepend=kin.euler[first[0], 0]))
+    slide = np.zeros((n_contacts, 3))
+    slide[:, :2] = (rng.standard_normal((n_contacts, 2)) / np.sqrt(2.0)
+                    * (config.pivot_slide_mm / 1000.0 * turn)[:, None])
+    inside = cid >= 0
+    out[inside] = slide[cid[inside]]
+    return out
+
+
 def mount_motion(kin: FootKinematics, fs: float, config: MountConfig, pivot: np.ndarray,
                  rng: np.random.Generator, gravity: float = 9.81) -> MountMotion:
     """Motion of the IMU on its mount for foot motion ``kin`` sampled uniformly at ``fs``.
@@ -204,6 +242,7 @@ def mount_motion(kin: FootKinematics, fs: float, config: MountConfig, pivot: np.
     lever = -np.asarray(pivot, float)
     u_eq = Rotation.from_rotvec(flex).apply(lever) - lever
     u_eq[:, 0] += config.shear_mm / 1000.0 * shear
+    u_eq += pivot_slides(kin, config, rng) * flex_amount[:, None]
     u, u_dot, u_ddot = _oscillator(w * w * u_eq - f_b, fs, w, config.damping)
     return MountMotion(u=u, u_dot=u_dot, u_ddot=u_ddot, rho=rho, rho_dot=rho_dot)
 
