@@ -5,7 +5,7 @@ Per firefighter, once per odometry update (the paper downsamples odometry to 2 H
 
 1. time update: move every particle by the increment rotated by its own frame
    rotation, add noise (:mod:`.motion`; none over 'still' increments with
-   ``motion.noise_while_still: false``), turn each frame rotation by its drift rate
+   ``motion.noise_while_still: false``, the crawl noise over 'crawl' ones), turn each frame rotation by its drift rate
    (``motion.yaw_rate_sigma`` > 0, for an INS with an uncalibrated yaw gyro bias), change
    floors on stairs (:mod:`.stairs`);
 2. measurement updates: every attached constraint adds log-weights
@@ -19,11 +19,14 @@ Per firefighter, once per odometry update (the paper downsamples odometry to 2 H
 5. output: the weighted mean pose (the MMSE estimate of §V-B) with its covariance,
    and the map-error monitor of §V-E (:mod:`.map_error`).
 
-Uncertainty signal: the published pose's covariance; ``cov[0,0] + cov[1,1]`` is the
-paper's "variance summed over both horizontal directions" (§V-E). While it exceeds
-``map_error.variance`` the pose has ``trusted=False``; a rise above it after the
-filter had converged raises the ``map_error`` warning diagnostic, cleared
-(``active=False``) when the filter converges again.
+Integrity (:mod:`.trust`): the published covariance is the cloud's plus a kernel of
+``trust.kernel`` per axis; ``protection_radius`` is the cloud's 99 % radius about the
+mean (a second cluster counts in full); ``trusted`` holds while it is within
+``integrity.alert_limit`` and no ``map_error`` is active. ``map_error`` (a warning with
+the place, cleared with ``active=False``) comes from the spread monitor of §V-E
+(:mod:`.map_error`: ``cov[0,0] + cov[1,1]`` above ``map_error.variance`` after the filter
+had converged) or from the contradiction monitor (the constraints refuting most of the
+cloud), during which the cloud is widened rather than held.
 """
 from __future__ import annotations
 
