@@ -5,7 +5,7 @@ Per firefighter, once per odometry update (the paper downsamples odometry to 2 H
 
 1. time update: move every particle by the increment rotated by its own frame
    rotation, add noise (:mod:`.motion`; none over 'still' increments with
-   ``motion.noise_while_still: false``), turn each frame rotation by its drift rate
+   ``motion.noise_while_still: false``, the crawl noise over 'crawl' ones), turn each frame rotation by its drift rate
    (``motion.yaw_rate_sigma`` > 0, for an INS with an uncalibrated yaw gyro bias), change
    floors on stairs (:mod:`.stairs`);
 2. measurement updates: every attached constraint adds log-weights
@@ -19,11 +19,14 @@ Per firefighter, once per odometry update (the paper downsamples odometry to 2 H
 5. output: the weighted mean pose (the MMSE estimate of §V-B) with its covariance,
    and the map-error monitor of §V-E (:mod:`.map_error`).
 
-Uncertainty signal: the published pose's covariance; ``cov[0,0] + cov[1,1]`` is the
-paper's "variance summed over both horizontal directions" (§V-E). While it exceeds
-``map_error.variance`` the pose has ``trusted=False``; a rise above it after the
-filter had converged raises the ``map_error`` warning diagnostic, cleared
-(``active=False``) when the filter converges again.
+Integrity (:mod:`.trust`): the published covariance is the cloud's plus a kernel of
+``trust.kernel`` per axis; ``protection_radius`` is the cloud's 99 % radius about the
+mean (a second cluster counts in full); ``trusted`` holds while it is within
+``integrity.alert_limit`` and no ``map_error`` is active. ``map_error`` (a warning with
+the place, cleared with ``active=False``) comes from the spread monitor of §V-E
+(:mod:`.map_error`: ``cov[0,0] + cov[1,1]`` above ``map_error.variance`` after the filter
+had converged) or from the contradiction monitor (the constraints refuting most of the
+cloud), during which the cloud is widened rather than held.
 """
 from __future__ import annotations
 
@@ -37,6 +40,7 @@ from firenav_framework import Estimator, GroundTruth, Odometry, PerAgent, PoseEs
 from firenav_framework.capabilities.odometry_history import OdometryHistory
 from firenav_framework.capabilities.particles import ParticleConstraint, ParticleStep, Particles
 from firenav_framework.geometry import wrap_angles
+from firenav_framework.integrity import trusted
 
 from .initialisation import around_pose, near_point, uniform_free_space
 from .map_error import SpreadMonitor
@@ -47,6 +51,7 @@ from .params import ParticleFilterParams
 from .particles import ParticleSummary, local_log_weight, normalise_log_weights
 from .resampling import replace_removed, resample_indices
 from .stairs import apply_stairs
+from .trust import ContradictionMonitor, cloud_protection_radius, retained_fraction, roughen
 
 __all__ = ["ParticleFilterEstimator"]
 
@@ -62,6 +67,8 @@ class _Pending:
     #: seconds of the summed increments that add no time-update noise (still, with
     #: ``noise_while_still: false``)
     quiet_s: float = 0.0
+    #: whether any of the summed increments is labelled 'crawl'
+    crawl: bool = False
 
 
 @dataclass
@@ -69,6 +76,7 @@ class _AgentState:
     rng: np.random.Generator
     history: OdometryHistory
     monitor: SpreadMonitor
+    contradiction: ContradictionMonitor
     particles: Particles | None = None
     pending: _Pending | None = None
     last_t: float = -math.inf
@@ -77,6 +85,8 @@ class _AgentState:
     truth: deque = field(default_factory=lambda: deque(maxlen=1024))
     #: var_x + var_y of the cloud after the last update [m^2]
     spread_m2: float = math.inf
+    #: whether a map_error diagnostic is active (spread or contradiction)
+    map_error: bool = False
 
 
 class ParticleFilterEstimator(Estimator):
@@ -92,6 +102,7 @@ class ParticleFilterEstimator(Estimator):
     def __init__(self, params: ParticleFilterParams, ctx):
         super().__init__(params, ctx)
         self.noise = params.motion.noise()
+        self.crawl_noise = params.motion.noise(crawl=True)
         self.state: PerAgent[_AgentState] = PerAgent(self._new_agent)
 
     # ------------------------------------------------------------------ lifecycle
@@ -100,8 +111,11 @@ class ParticleFilterEstimator(Estimator):
         seed = np.random.SeedSequence([p.seed, zlib.crc32(agent.encode())])
         keep = max([p.offset_window] + [getattr(c, "history_m", 0.0) for c in self.constraints])
         clear = p.map_error.clear if p.map_error.clear is not None else p.map_error.variance
+        tr = p.trust
         return _AgentState(rng=np.random.default_rng(seed), history=OdometryHistory(2 * keep + 10),
-                           monitor=SpreadMonitor(p.map_error.variance, clear))
+                           monitor=SpreadMonitor(p.map_error.variance, clear),
+                           contradiction=ContradictionMonitor(tr.retained_floor, tr.smoothing,
+                                                              tr.hold))
 
     def reset(self, agent: str) -> None:
         self.state.reset(agent)
@@ -137,6 +151,7 @@ class ParticleFilterEstimator(Estimator):
             st.pending.delta += delta
             st.pending.dheading += msg.dheading
             st.pending.msg = msg
+        st.pending.crawl |= msg.motion == "crawl"
         if msg.motion == "still" and not self.params.motion.noise_while_still:
             st.pending.quiet_s += msg.t - msg.t_start
         if msg.t - st.pending.t_start >= self.params.update_interval:
@@ -190,7 +205,8 @@ class ParticleFilterEstimator(Estimator):
         self._update_offset(st)
         before = p.copy()
         noisy_s = max(0.0, msg.t - pend.t_start - pend.quiet_s)
-        propagate(p, pend.delta[:2], noisy_s, self.noise, rng, drift_s=msg.t - pend.t_start)
+        noise = self.crawl_noise if pend.crawl else self.noise
+        propagate(p, pend.delta[:2], noisy_s, noise, rng, drift_s=msg.t - pend.t_start)
         apply_stairs(p, float(pend.delta[2]), self.ctx.building)
         odo = msg if pend.t_start == msg.t_start else Odometry(
             t=msg.t, agent=agent, device=msg.device, t_start=pend.t_start, delta=pend.delta,
@@ -200,7 +216,8 @@ class ParticleFilterEstimator(Estimator):
                             history=st.history, ins_heading=msg.heading,
                             walk_offset=st.walk_offset, rng=rng, building=self.ctx.building,
                             spread_m2=st.spread_m2)
-        self._measurement_updates(step, before)
+        retained = self._measurement_updates(step, before)
+        self._contradiction(st, step, retained)
         self._replace_by_constraints(step)
         resampling = self.params.resampling
         if len(p) and p.effective_sample_size() < resampling.below_ess * len(p):
@@ -217,7 +234,9 @@ class ParticleFilterEstimator(Estimator):
             return
         st.walk_offset = est
 
-    def _measurement_updates(self, step: ParticleStep, before: Particles) -> None:
+    def _measurement_updates(self, step: ParticleStep, before: Particles) -> float:
+        """Apply every constraint's log-likelihoods; returns the retained share of the
+        prior weight (:func:`.trust.retained_fraction`)."""
         p = step.particles
         total = np.zeros(len(p))
         for c in self.constraints:
@@ -232,7 +251,8 @@ class ParticleFilterEstimator(Estimator):
                                  f"{ll.shape} (need ({len(p)},), no NaN or +inf)")
             total += ll
         if not np.any(total):
-            return
+            return 1.0
+        retained = retained_fraction(p.logw, total)
         logw = p.logw + total
         if not normalise_log_weights(logw):
             # every particle refuted: keep the prior weights rather than lose the cloud
@@ -240,11 +260,23 @@ class ParticleFilterEstimator(Estimator):
             self.ctx.diagnose(step.t, "info", "all_particles_refuted",
                               "every particle was ruled out by the constraints; update skipped",
                               agent=step.agent)
-            return
+            return 0.0
         p.logw = logw
         eps = self.params.resampling.weight_floor / len(p)
         removed = ~np.isfinite(logw) | (logw < math.log(eps) if eps > 0 else False)
         self.ctx.count("replaced_particles", replace_removed(p, removed, step.rng))
+        return retained
+
+    def _contradiction(self, st: _AgentState, step: ParticleStep, retained: float) -> None:
+        """Follow how much of the cloud the plan refutes; widen the cloud while it does."""
+        tr = self.params.trust
+        if tr.retained_floor <= 0:
+            return
+        mon = st.contradiction
+        if mon.update(step.t, retained):
+            self.ctx.count("plan_contradictions")
+        if mon.widening():
+            roughen(step.particles, tr.widen_position, tr.widen_heading, step.rng)
 
     def _replace_by_constraints(self, step: ParticleStep) -> None:
         p = step.particles
@@ -276,18 +308,39 @@ class ParticleFilterEstimator(Estimator):
         levels = np.array([f.z for f in building.floors])
         summary = ParticleSummary.of(p, step.walking_heading(p), levels[p.floor] + p.climb)
         st.spread_m2 = summary.spread_m2
-        event = st.monitor.update(summary.spread_m2)
-        if event == "map_error":
-            self.ctx.diagnose(step.t, "warning", "map_error",
-                              f"position variance {summary.spread_m2:.1f} m^2 exceeds "
-                              f"{st.monitor.threshold_m2:g} m^2: estimate not trustworthy, "
-                              "possible map error", agent=agent)
-        elif event == "recovered":
-            self.ctx.diagnose(step.t, "info", "map_error",
-                              f"position variance back to {summary.spread_m2:.1f} m^2: "
-                              "estimate converged again", agent=agent, active=False)
+        st.monitor.update(summary.spread_m2)
+        self._map_error(agent, st, step.t, summary)
+        tr, integ = self.params.trust, self.params.integrity
+        cov = summary.cov.copy()
+        cov[0, 0] += tr.kernel ** 2
+        cov[1, 1] += tr.kernel ** 2
+        radius = cloud_protection_radius(p, summary.xy, summary.floor, integ.containment,
+                                         tr.kernel)
         self.ctx.publish("pose", PoseEstimate(
             t=step.t, agent=agent, device=step.odometry.device,
             position=np.array([summary.xy[0], summary.xy[1], summary.z]),
-            heading=summary.heading, cov=summary.cov, floor=summary.floor,
-            trusted=st.monitor.trusted(summary.spread_m2)))
+            heading=summary.heading, cov=cov, floor=summary.floor,
+            protection_radius=radius,
+            trusted=trusted(radius, integ, contradicted=st.map_error)))
+
+    def _map_error(self, agent: str, st: _AgentState, t: float, summary: ParticleSummary) -> None:
+        """One ``map_error`` episode per disturbance of the spread (§V-E) or contradiction of
+        the plan: a warning with the place when it starts, cleared when both have ended."""
+        spread = st.monitor.state == "disturbed"
+        contra = st.contradiction.contradicted
+        now = spread or contra
+        if now and not st.map_error:
+            where = (f"near ({summary.xy[0]:.1f}, {summary.xy[1]:.1f}) m on floor "
+                     f"{summary.floor}")
+            why = (f"the motion contradicts the plan {where} (the walls refute most of the "
+                   "cloud): widening, estimate not trustworthy" if contra else
+                   f"position variance {summary.spread_m2:.1f} m^2 exceeds "
+                   f"{st.monitor.threshold_m2:g} m^2 {where}: estimate not trustworthy, "
+                   "possible map error")
+            self.ctx.diagnose(t, "warning", "map_error", why, agent=agent)
+        elif st.map_error and not now:
+            self.ctx.diagnose(t, "info", "map_error",
+                              f"estimate consistent with the plan again near "
+                              f"({summary.xy[0]:.1f}, {summary.xy[1]:.1f}) m, variance "
+                              f"{summary.spread_m2:.1f} m^2", agent=agent, active=False)
+        st.map_error = now

@@ -6,9 +6,8 @@ disturbed by a map error, converged again. "Sudden increases in the estimated
 position variance can be used to indicate that the filter may have been disturbed
 by map errors."
 
-:class:`SpreadMonitor` follows those periods for one firefighter. The estimate is
-*trusted* only while the variance is at or below the threshold. A rise above it
-after the filter has converged once is a suspected map error: the monitor reports
+:class:`SpreadMonitor` follows those periods for one firefighter. A rise above the
+threshold after the filter has converged once is a suspected map error: the monitor reports
 it once when it starts and once when the variance falls back below
 ``clear_m2`` (equal to the threshold by default, as in the paper).
 """
@@ -39,7 +38,3 @@ class SpreadMonitor:
         if self.state == "converging" and spread_m2 <= self.clear_m2:
             self.state = "converged"
         return None
-
-    def trusted(self, spread_m2: float) -> bool:
-        """Whether an estimate with this spread should be trusted."""
-        return self.state == "converged" and spread_m2 <= self.threshold_m2

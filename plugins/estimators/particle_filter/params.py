@@ -10,6 +10,7 @@ from pydantic import BeforeValidator
 
 from firenav_framework import Angle, AngularRate, Params, StartPose, param
 from firenav_framework.contract.params import parse_angle
+from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import start_pose_type
 from .motion import MotionNoise
@@ -52,6 +53,13 @@ class Motion(Params):
                                     "increments labelled 'still' (the paper adds it at every "
                                     "2 Hz update); false: a foot at rest, where a ZUPT INS "
                                     "does not drift, does not spread the particles")
+    crawl_position_noise: float | None = param(None, unit="m", ge=0, description="position "
+                                               "noise over odometry labelled 'crawl' (the foot "
+                                               "INS is far less sure of a crawl; default: "
+                                               "position_noise)")
+    crawl_heading_noise: AnglePerMetre | None = param(None, unit="rad/m", ge=0, description=
+                                                      "heading noise per metre crawled "
+                                                      "(default: heading_noise)")
     step_scale_sigma: float = param(0.0, ge=0, lt=0.5, description="spread of a per-particle "
                                     "step-length scale around 1 (0 disables the scale state)")
     yaw_rate_sigma: AngularRate = param(0.0, unit="rad/s", ge=0, description="spread of a "
@@ -59,9 +67,14 @@ class Motion(Params):
                                         "odometry whose yaw gyro bias was not calibrated "
                                         "(e.g. an IMU's turn-on bias; 0 disables)")
 
-    def noise(self) -> MotionNoise:
-        return MotionNoise(position_sigma_m=self.position_noise, period_s=self.noise_period,
-                           heading_sigma_rad_per_m=self.heading_noise)
+    def noise(self, crawl: bool = False) -> MotionNoise:
+        """The time-update noise for walking (or for odometry labelled 'crawl')."""
+        pos, hdg = self.position_noise, self.heading_noise
+        if crawl:
+            pos = pos if self.crawl_position_noise is None else self.crawl_position_noise
+            hdg = hdg if self.crawl_heading_noise is None else self.crawl_heading_noise
+        return MotionNoise(position_sigma_m=pos, period_s=self.noise_period,
+                           heading_sigma_rad_per_m=hdg)
 
 
 class Resampling(Params):
@@ -95,6 +108,25 @@ class MapError(Params):
                                 "which a map error clears (default: the same threshold)")
 
 
+class Trust(Params):
+    """The protection radius of the cloud and the contradiction monitor (:mod:`.trust`)."""
+
+    kernel: float = param(0.5, unit="m", ge=0, description="each particle blurred by a "
+                          "Gaussian of this sigma per axis in the protection radius and the "
+                          "published covariance")
+    retained_floor: float = param(0.25, ge=0, lt=1, description="smoothed share of the prior "
+                                  "weight the constraints keep below which the motion "
+                                  "contradicts the plan (0 disables)")
+    smoothing: float = param(0.3, gt=0, le=1, description="weight of the newest update in the "
+                             "smoothed retained share")
+    hold: float = param(10.0, unit="s", ge=0, description="the pose stays untrusted this long "
+                        "after the last contradiction")
+    widen_position: float = param(0.3, unit="m", ge=0, description="position jitter per axis "
+                                  "added to the cloud at every contradicted update")
+    widen_heading: Angle = param(3 * DEG, unit="rad", ge=0, description="frame-rotation "
+                                 "jitter added at every contradicted update")
+
+
 class ParticleFilterParams(Params):
     particles: int = param(500, gt=0, le=100_000, description="particles per firefighter (N_p, §V-B)")
     start: Start = param(DEFAULT_START, description=(
@@ -106,6 +138,8 @@ class ParticleFilterParams(Params):
     resampling: Resampling = param(Resampling(), description="replacement and resampling")
     injection: Injection = param(Injection(), description="particles injected by constraints")
     map_error: MapError = param(MapError(), description="map-error monitor (§V-E)")
+    integrity: IntegrityParams = param(IntegrityParams(), description="when a pose is trusted")
+    trust: Trust = param(Trust(), description="protection radius and contradiction monitor")
     update_interval: float = param(0.5, unit="s", ge=0, description="odometry is summed to at "
                                    "least this interval per update (2 Hz in §V-B)")
     offset_window: float = param(20.0, unit="m", gt=0, description="path length over which "

@@ -1,0 +1,53 @@
+"""The filter's integrity: the protection radius of the cloud and the plan-contradiction
+monitor (:mod:`firenav_plugins.estimators.particle_filter.trust`)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firenav_framework.capabilities import Particles
+from firenav_plugins.estimators.particle_filter.trust import (
+    ContradictionMonitor, cloud_protection_radius, retained_fraction)
+
+K99 = math.sqrt(-2.0 * math.log(0.01))   # 99 % radius of a unit 2-D Gaussian
+
+
+def test_radius_of_a_point_cloud_is_the_kernel_radius():
+    p = Particles.create(np.zeros((100, 2)), 0.0)
+    assert cloud_protection_radius(p, np.zeros(2), 0, 0.99, 0.5) == pytest.approx(0.5 * K99)
+
+
+def test_a_second_cluster_widens_the_radius_in_full():
+    xy = np.vstack([np.zeros((95, 2)), np.full((5, 2), [8.0, 0.0])])
+    p = Particles.create(xy, 0.0)
+    mean = p.weights @ p.xy                       # (0.4, 0): between the two
+    r = cloud_protection_radius(p, mean, 0, 0.99, 0.0)
+    assert r == pytest.approx(7.6)                # the far cluster's 5 % count
+    assert cloud_protection_radius(p, mean, 0, 0.90, 0.0) == pytest.approx(0.4)
+
+
+def test_weight_on_another_floor_gives_no_bound():
+    p = Particles.create(np.zeros((100, 2)), 0.0, floor=np.r_[np.zeros(98), np.ones(2)])
+    assert math.isinf(cloud_protection_radius(p, np.zeros(2), 0, 0.99, 0.5))
+    assert math.isfinite(cloud_protection_radius(p, np.zeros(2), 0, 0.97, 0.5))
+
+
+def test_retained_fraction():
+    logw = np.log(np.full(4, 0.25))
+    assert retained_fraction(logw, np.zeros(4)) == pytest.approx(1.0)
+    assert retained_fraction(logw, np.array([0, 0, -np.inf, -np.inf])) == pytest.approx(0.5)
+    assert retained_fraction(logw, np.log([1.0, 0.1, 0.1, 0.1])) == pytest.approx(0.325)
+    assert retained_fraction(logw, np.full(4, -np.inf)) == 0.0
+
+
+def test_monitor_fires_once_holds_and_clears():
+    m = ContradictionMonitor(floor=0.25, smoothing=0.5, hold_s=10.0)
+    starts = [m.update(float(t), 0.0) for t in range(4)]     # level 0.5, 0.25, 0.125, ...
+    assert starts == [False, False, True, False] and m.contradicted
+    for t in range(4, 12):
+        m.update(float(t), 1.0)
+    assert m.contradicted                 # recovered level, but within hold of t=3
+    m.update(14.0, 1.0)
+    assert not m.contradicted
