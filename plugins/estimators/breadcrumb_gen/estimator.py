@@ -264,10 +264,14 @@ class BreadcrumbGenEstimator(Estimator):
         about ``a^2 / 2`` of the step: 5 % at 0.3 rad, typical before the first loop
         closure. So a state whose heading is still more uncertain than
         ``settle_heading_sigma`` stays (up to ``window_max`` states) until a closure has
-        fixed it and its odometry has been re-linearised.
+        fixed it and its odometry has been re-linearised. At most
+        ``graph.forget_per_update`` states go per update, so that the backlog a closure
+        settles at once is spread over the next updates (a bounded cost per update).
         """
         p = self.params
-        while len(st.states) > p.graph.window:
+        budget = p.graph.forget_per_update
+        while len(st.states) > p.graph.window and budget > 0:
+            budget -= 1
             old = st.states[0]
             if (old.heading is not None and len(st.states) <= p.graph.window_max
                     and self.gen.covariances_of([old.heading])[0, 0, 0]

@@ -113,6 +113,9 @@ class Graph(Params):
     window_max: int = param(200, ge=2, description="past states kept at most while the oldest "
                             "one's heading is unsettled (heading states; never fewer than "
                             "window)")
+    forget_per_update: int = param(4, ge=2, description="states marginalised at most per "
+                                   "update (a closure that settles a long backlog at once "
+                                   "spreads its marginalisation over the next updates)")
     settle_heading_sigma: Angle = param(0.1, unit="rad", gt=0, description="a state is "
                                         "marginalised only once its heading is known this "
                                         "well (heading states)")
