@@ -31,10 +31,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from firenav_framework.evaluation.metrics import metrics_of, track_errors
-from firenav_framework.evaluation.seeds import parse_seeds
-from firenav_framework.pipeline import load_pipeline
-from firenav_framework.runner import run_pipeline
+# plugin imports on a loaded machine can take longer than the 30 s default
+os.environ.setdefault("FIRENAV_IMPORT_TIMEOUT", "600")
+
+from firenav_framework.evaluation.metrics import metrics_of, track_errors  # noqa: E402
+from firenav_framework.evaluation.seeds import parse_seeds  # noqa: E402
+from firenav_framework.pipeline import load_pipeline  # noqa: E402
+from firenav_framework.runner import run_pipeline  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 OURS = ROOT / "pipelines" / "breadcrumb-gen.yaml"
@@ -57,14 +60,14 @@ def combined_pipeline(entrance: bool) -> dict:
     return ours
 
 
-def run_seed(job: tuple[int, str, bool]) -> dict:
+def run_seed(job: tuple[int, str, bool, list[str]]) -> dict:
     """Figures of every track of every row on one seed (JSON-ready)."""
-    seed, scenario, entrance = job
+    seed, scenario, entrance, overrides = job
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "report.yaml"
         path.write_text(yaml.safe_dump(combined_pipeline(entrance)))
         spec = load_pipeline(path, [f"sources.sim.seed={seed}",
-                                    f"sources.sim.scenario={scenario}"])
+                                    f"sources.sim.scenario={scenario}", *overrides])
         res = run_pipeline(spec, output_dir=Path(tmp))
     out = {}
     for row, stream in ROWS:
@@ -136,6 +139,10 @@ def main() -> None:
     ap.add_argument("--jsonl", default="", help="append each seed's figures here as it "
                     "finishes; with --table only, print the table of such a file")
     ap.add_argument("--table", action="store_true")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a value of the combined pipeline (e.g. "
+                    "estimators.gen.heading.rate_sigma=0.03; the as-published one is "
+                    "estimators.paper)")
     args = ap.parse_args()
     if args.table:
         per_seed = [json.loads(line) for line in Path(args.jsonl).read_text().splitlines()]
@@ -143,7 +150,7 @@ def main() -> None:
         return
     seeds = parse_seeds(args.seeds)
     seeds = seeds[:20] if args.seeds == "report" else seeds
-    jobs = [(s, args.scenario, args.entrance) for s in seeds]
+    jobs = [(s, args.scenario, args.entrance, args.set) for s in seeds]
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     per_seed = []
     with get_context("spawn").Pool(args.workers) as pool:
