@@ -107,3 +107,23 @@ def test_kicked_breadcrumb_is_detected_from_its_fixed_links():
 def test_conforms_to_the_plugin_contract():
     check_plugin(RssiBreadcrumbSensor, P, sample_input=[drop(0.0, "bc1"),
                                                         reading(1.0, "bc1", "ff1", -45.0)])
+
+
+def test_silent_breadcrumbs_are_reported_once_duds_and_dead_apart():
+    """A dud never heard after its drop and a breadcrumb that falls silent (burned, lost)
+    are each said once after ``silent_s``; one that keeps talking never."""
+    msgs = [drop(0.0, "bc1"), drop(0.0, "bc2"), drop(0.0, "bc3")]
+    for t in range(1, 200):
+        msgs.append(reading(float(t), "bc1", "base", -60.0))
+        if t < 30:
+            msgs.append(reading(float(t) + 0.5, "bc3", "base", -62.0))
+    comp, rec, stats = make_component(RssiBreadcrumbSensor, {**P, "silent_s": 60.0})
+    comp.start()
+    for s, m in msgs:
+        comp.handle(s, m)
+    said = {d.text.split(":")[0]: d for d in rec.on("diagnostics") if d.code == "breadcrumb_silent"}
+    assert set(said) == {"breadcrumb bc2", "breadcrumb bc3"}
+    assert "dud" in said["breadcrumb bc2"].text and 60.0 <= said["breadcrumb bc2"].t <= 70.0
+    assert "silent since t = 30 s" in said["breadcrumb bc3"].text     # last heard 29.5 s
+    assert 89.0 <= said["breadcrumb bc3"].t <= 100.0
+    assert stats.counts["under_test"]["breadcrumbs_silent"] == 2

@@ -14,9 +14,11 @@ Nodes of the extended relative measurement graph (§IV-E):
 Edges: odometry steps, RSSI ranges (eqs. 18-21, with the antennas' heights as a constant
 offset), encounters (the two nodes at the same place, linear), drops and kicks (linear).
 Outliers (§IV-F): a step faster than ``odometry.max_speed`` is physically impossible and
-replaced by the bare speed limit; a range whose innovation exceeds ``radio.gate`` sigmas
-is dropped, one beyond ``radio.weaken`` sigmas weakened (its variance scaled up to sit at
-``radio.weaken`` sigmas). A range shorter than ``radio.near_range`` - or between nodes whose
+replaced by the bare speed limit; a range or encounter beyond ``radio.weaken`` sigmas is
+weakened (its variance scaled up to sit at ``radio.weaken`` sigmas), and one beyond
+``radio.gate`` sigmas contradicts the graph: it is down-weighted further (the paper drops
+it), counted, said with the place (``radio_contradiction``), and widens the firefighter's
+published covariance until consistent links return. A range shorter than ``radio.near_range`` - or between nodes whose
 estimated distance is below their relative uncertainty, where its direction is
 meaningless - enters as a zero relative position with the range's spread ("the nodes
 are within r of each other").
@@ -41,8 +43,16 @@ per agent: ranges and encounters fix positions relative to the base station but 
 observe a rotation of the whole track about it, so the initial heading is an input
 (the paper's firefighters start at the base station with a known heading).
 
+Beyond the paper, the radio's path-loss model is learned online from links of known
+length (``learn``, radio_model.py) and corrects the sensor's ranges and encounters.
+
+Integrity: the published horizontal covariance is the graph's marginal (eq. 5) scaled by
+the running normalised innovation of the firefighter's radio links when that says the
+graph is optimistic (``consistency``), plus the size of an unresolved contradiction; the
+protection radius is its 99 % circle and ``trusted`` is derived from it (``integrity``).
+
 Ports: ``pose`` - one :class:`PoseEstimate` per odometry step per firefighter (the
-newest state, covariance from eq. 5); ``breadcrumbs`` - a :class:`PoseEstimate` per
+newest state, covariance as above); ``breadcrumbs`` - a :class:`PoseEstimate` per
 breadcrumb touched by an update (``agent`` = the breadcrumb id, ``device`` = its graph
 node), and all of them at the end; ``diagnostics``.
 """
@@ -50,17 +60,19 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from firenav_framework import BreadcrumbDrop, Estimator, Odometry, PoseEstimate, Range
 from firenav_framework.contract import NoBuilding
 from firenav_framework.geometry import planar_rotation, wrap_angle
+from firenav_framework.integrity import gaussian_protection_radius, trusted
 
 from ..odometry_input import accept_odometry
 from .network import GeneralizedElectricalNetwork
 from .params import BreadcrumbGenParams
+from .radio_model import PathLossLearner
 
 __all__ = ["BreadcrumbGenEstimator"]
 
@@ -71,6 +83,7 @@ class _State:
     t: float
     speed: float          # horizontal speed of the step that ended here [m/s]
     heading: str | None   # its heading-state node (None without heading states)
+    index: int = -1       # steps since the start (-1: the start state)
 
 
 @dataclass
@@ -80,6 +93,11 @@ class _Agent:
     heading_var: float = 0.0        # summed INS heading variance (without heading states)
     pending: list = field(default_factory=list)          # radio/drop events waiting for a state
     last_range: dict = field(default_factory=dict)       # node -> t of the last range used
+    nis: float = 1.0          # running normalised innovation of its radio links [-]
+    widen: float = 0.0        # extra horizontal variance after a contradiction [m^2]
+    contradicted: bool = False          # since the last contradiction, no consistent link
+    last_said: float = -math.inf        # data time of the last contradiction diagnostic [s]
+    unsaid: int = 0                     # contradictions since then
 
 
 class BreadcrumbGenEstimator(Estimator):
@@ -103,6 +121,11 @@ class BreadcrumbGenEstimator(Estimator):
         self._static: dict[tuple[str, str], list[float]] = {}   # fixed pair -> ranges
         self._touched: set[str] = set()
         self._base_ready = False
+        lp = p.learn
+        self._radio_model = PathLossLearner(lp.sigma_offset, lp.sigma_slope, lp.sigma_log,
+                                            lp.min_samples) if lp.enabled else None
+        self._dropped_by: dict[str, tuple[str, int]] = {}   # crumb node -> (agent, step)
+        self._learnt_at: dict[tuple[str, str], float] = {}  # link -> t of its last sample
 
     # -- set-up ------------------------------------------------------------------------------
     def start(self) -> None:
@@ -185,7 +208,7 @@ class BreadcrumbGenEstimator(Estimator):
                     self.gen.add_relative_position(key, prev.key, delta, cov)
                 else:
                     self.gen.add_rotated_position(key, prev.key, heading, delta, cov)
-            st.states.append(_State(key, msg.t, step / dt, heading))
+            st.states.append(_State(key, msg.t, step / dt, heading, st.count - 1))
             st.heading_var += float(np.asarray(msg.cov)[3, 3])
             self._release(msg.agent, st, final=False)
         self.gen.relinearize()
@@ -241,10 +264,14 @@ class BreadcrumbGenEstimator(Estimator):
         about ``a^2 / 2`` of the step: 5 % at 0.3 rad, typical before the first loop
         closure. So a state whose heading is still more uncertain than
         ``settle_heading_sigma`` stays (up to ``window_max`` states) until a closure has
-        fixed it and its odometry has been re-linearised.
+        fixed it and its odometry has been re-linearised. At most
+        ``graph.forget_per_update`` states go per update, so that the backlog a closure
+        settles at once is spread over the next updates (a bounded cost per update).
         """
         p = self.params
-        while len(st.states) > p.graph.window:
+        budget = p.graph.forget_per_update
+        while len(st.states) > p.graph.window and budget > 0:
+            budget -= 1
             old = st.states[0]
             if (old.heading is not None and len(st.states) <= p.graph.window_max
                     and self.gen.covariances_of([old.heading])[0, 0, 0]
@@ -338,8 +365,14 @@ class BreadcrumbGenEstimator(Estimator):
         if a is None or b is None:
             self.ctx.count("radio_unmatched")
             return
+        if self._radio_model is not None:
+            if msg.method == "rssi":
+                self._learn(msg, agent, a, b)
+            r, sigma = self._radio_model.correct(msg.range_m, msg.sigma_m)
+            msg = replace(msg, range_m=r, sigma_m=sigma) if msg.method == "rssi" \
+                else replace(msg, range_m=r)
         if msg.method == "rssi_encounter":
-            self._encounter(msg, a, b)
+            self._encounter(msg, agent, a, b)
             return
         other = msg.b if msg.a == agent else msg.a
         if msg.t - st.last_range.get(other, -math.inf) < p.radio.period:
@@ -349,30 +382,112 @@ class BreadcrumbGenEstimator(Estimator):
             self.ctx.count("range_too_long")
             return
         st.last_range[other] = msg.t
-        self._range(msg, a, b)
+        self._range(msg, agent, a, b)
 
-    def _encounter(self, msg: Range, a, b) -> None:
-        (na, _, va), (nb, _, vb) = a, b
-        var = msg.sigma_m ** 2 + va + vb
+    def _learn(self, msg: Range, agent: str, a, b) -> None:
+        """A link of known length for the path-loss model (radio_model.py): the base station
+        over a firefighter's first ``learn.steps`` steps, a breadcrumb over its dropper's
+        next ``learn.steps`` steps."""
+        p = self.params
+        (na, ha, _), (nb, hb, _) = a, b
+        mine, fixed = (na, nb) if msg.a == agent else (nb, na)
+        step = int(mine.rsplit("@", 1)[1]) if "@" in mine and mine[-1].isdigit() else -1
+        if fixed == p.base.id:
+            known = step <= p.learn.steps
+        else:
+            by = self._dropped_by.get(fixed)
+            known = by is not None and by[0] == agent and 0 <= step - by[1] <= p.learn.steps
+        link = (agent, fixed)
+        if not known or msg.t - self._learnt_at.get(link, -math.inf) < p.learn.period:
+            return
+        self._learnt_at[link] = msg.t
+        x = self.gen.estimates_of([na, nb])
+        d = float(np.linalg.norm(x[0] - x[1] + np.array([0.0, 0.0, ha - hb])))
+        was_ready = self._radio_model.ready
+        self._radio_model.observe(msg.range_m, d)
+        if self._radio_model.ready and not was_ready:
+            c, e = self._radio_model.coefficients
+            self.ctx.diagnose(msg.t, "info", "path_loss_learned",
+                              f"radio model learned from {self._radio_model.samples} links "
+                              f"of known length: log10 r = {c:+.3f} + {e:.3f} log10 d "
+                              f"(exponent {e:.3f} x the sensor's, RSSI at 1 m the sensor's "
+                              f"{-c * 10:+.1f} x its exponent dB; spread "
+                              f"{self._radio_model.residual_sigma:.2f} decades)", agent=agent)
+
+    def _encounter(self, msg: Range, agent: str, a, b) -> None:
+        (na, ha, va), (nb, hb, vb) = a, b
+        var = msg.sigma_m ** 2
+        if self._radio_model is not None and self._radio_model.ready:
+            # the learned model says how far apart the nodes were at the peak
+            var = max(var, max(msg.range_m ** 2 - (ha - hb) ** 2, 0.0) / 2.0)
+        var += va + vb
         cov = np.diag([var, var, 0.3 ** 2])
-        if not self._gate_position(na, nb, np.zeros(3), cov, "encounter"):
+        cov = self._judged_position(agent, msg.t, na, nb, np.zeros(3), cov, "encounter")
+        if cov is None:
             return
         self.gen.add_relative_position(na, nb, np.zeros(3), cov)
         self.ctx.count("encounters_used")
         self._touched.update((na, nb))
 
-    def _gate_position(self, na: str, nb: str, zeta: np.ndarray, cov: np.ndarray,
-                       what: str) -> bool:
-        """§IV-F: drop a relative position whose innovation is beyond ``radio.gate``."""
+    def _judged_position(self, agent: str, t: float, na: str, nb: str, zeta: np.ndarray,
+                         cov: np.ndarray, what: str) -> np.ndarray | None:
+        """The covariance a relative position ``zeta`` = x_a - x_b enters with, after
+        judging its innovation against the graph (§IV-F, :meth:`_judge`); None: dropped."""
         x = self.gen.estimates_of([na, nb])
         joint = self._relative_cov(na, nb)
         innov = zeta - (x[0] - x[1])
         S = joint[:2, :2] + cov[:2, :2]
         m2 = float(innov[:2] @ np.linalg.solve(S, innov[:2]))
-        if m2 > self.params.radio.gate ** 2 * 2:
-            self.ctx.count(f"{what}_outliers")
-            return False
-        return True
+        scale = self._judge(agent, t, math.sqrt(m2 / 2.0), m2 / 2.0,
+                            float(np.hypot(innov[0], innov[1])), x[0], what)
+        if scale is None:
+            return None
+        out = cov.copy()
+        out[:2, :2] *= scale
+        return out
+
+    def _judge(self, agent: str, t: float, z: float, nis: float, miss: float,
+               where: np.ndarray, what: str) -> float | None:
+        """Judge a radio link whose innovation is ``z`` sigmas (``nis``: its squared
+        normalised innovation per degree of freedom, ``miss`` [m] its size) and return
+        the factor its variance enters with.
+
+        Up to ``radio.weaken`` sigmas: as measured (1). To ``radio.gate``: weakened so it
+        sits at ``weaken`` sigmas (§IV-F). Beyond: it contradicts the graph - down-weighted
+        by a further ``(z / gate)^4`` (its pull falls as ``1 / z``), counted, said with the
+        place, and the firefighter's published covariance carries ``miss^2`` until a later
+        link confirms the graph (within ``weaken``: gone; within ``gate``: shrunk by
+        ``consistency.widen_decay``). Without ``consistency.enabled`` (the paper) it is
+        dropped (None).
+        """
+        p = self.params
+        st = self._agents.get(agent) if p.consistency.enabled else None
+        if st is not None:
+            st.nis += (min(nis, 25.0) - st.nis) / p.consistency.memory
+        if z <= p.radio.gate:                   # consistent with the graph
+            if st is not None:
+                st.contradicted = False
+                st.widen = 0.0 if z <= p.radio.weaken else st.widen * p.consistency.widen_decay
+            if z <= p.radio.weaken:
+                return 1.0
+            self.ctx.count(f"{what}s_weakened")
+            return (z / p.radio.weaken) ** 2
+        scale = (z / p.radio.weaken) ** 2
+        self.ctx.count(f"{what}_contradictions")
+        if not p.consistency.enabled:
+            return None
+        if st is not None:
+            st.widen = max(st.widen, miss ** 2)
+            st.contradicted = True
+            st.unsaid += 1
+            if t - st.last_said >= 10.0:
+                self.ctx.diagnose(t, "warning", "radio_contradiction",
+                                  f"{agent}: {st.unsaid} {what}(s) contradict the graph "
+                                  f"(latest {z:.1f} sigma, {miss:.1f} m) near ({where[0]:.1f}, "
+                                  f"{where[1]:.1f}) m: down-weighted, position widened",
+                                  agent=agent)
+                st.last_said, st.unsaid = t, 0
+        return scale * (z / p.radio.gate) ** 4
 
     def _relative_cov(self, na: str, nb: str) -> np.ndarray:
         """Covariance (3, 3) of x_a - x_b."""
@@ -384,7 +499,7 @@ class BreadcrumbGenEstimator(Estimator):
             return C
         return C[:3, :3] + C[3:, 3:] - C[:3, 3:] - C[3:, :3]
 
-    def _range(self, msg: Range, a, b) -> None:
+    def _range(self, msg: Range, agent: str, a, b) -> None:
         p = self.params
         (na, ha, va), (nb, hb, vb) = a, b
         off = np.array([0.0, 0.0, ha - hb])
@@ -398,23 +513,22 @@ class BreadcrumbGenEstimator(Estimator):
             # the direction is meaningless here: "within r of each other"
             horiz = max(msg.range_m ** 2 - (ha - hb) ** 2, 0.0)
             v = horiz / 2.0 + var
-            cov = np.diag([v, v, 0.3 ** 2])
-            if self._gate_position(na, nb, np.zeros(3), cov, "range"):
-                self.gen.add_relative_position(na, nb, np.zeros(3), cov)
-                self.ctx.count("ranges_near")
-                self._touched.update((na, nb))
+            cov = self._judged_position(agent, msg.t, na, nb, np.zeros(3),
+                                        np.diag([v, v, 0.3 ** 2]), "range")
+            if cov is None:
+                return
+            self.gen.add_relative_position(na, nb, np.zeros(3), cov)
+            self.ctx.count("ranges_near")
+            self._touched.update((na, nb))
             return
         h = diff / pred
         innov = msg.range_m - pred
         S = float(h @ rel @ h) + var
         z = abs(innov) / math.sqrt(S)
-        if z > p.radio.gate:
-            self.ctx.count("range_outliers")
+        scale = self._judge(agent, msg.t, z, z * z, abs(innov), x[0], "range")
+        if scale is None:
             return
-        if z > p.radio.weaken:                          # §IV-F: weaken a noisy one
-            var *= (z / p.radio.weaken) ** 2
-            self.ctx.count("ranges_weakened")
-        self.gen.add_range(na, nb, msg.range_m, var, offset=off)
+        self.gen.add_range(na, nb, msg.range_m, var * scale, offset=off)
         self.ctx.count("ranges_used")
         self._touched.update((na, nb))
 
@@ -442,7 +556,7 @@ class BreadcrumbGenEstimator(Estimator):
         hb = 0.0 if nb == p.base.id else p.breadcrumbs.antenna_height
         fake = Range(t=msg.t, a=na, b=nb, range_m=r, sigma_m=sigma, method="rssi")
         with self.gen.batch():
-            self._range(fake, (na, ha, 0.0), (nb, hb, 0.0))
+            self._range(fake, "", (na, ha, 0.0), (nb, hb, 0.0))
         self.gen.relinearize()
 
     # -- breadcrumbs -----------------------------------------------------------------------------
@@ -455,6 +569,7 @@ class BreadcrumbGenEstimator(Estimator):
         self.gen.add_node(msg.node_id)
         self.gen.add_relative_position(msg.node_id, s.key, np.zeros(3), np.diag([v, v, 0.05]))
         self._crumbs[msg.node_id] = msg.node_id
+        self._dropped_by[msg.node_id] = (msg.agent, s.index)
         self._touched.add(msg.node_id)
 
     def _kicked(self, msg: BreadcrumbDrop) -> None:
@@ -486,8 +601,15 @@ class BreadcrumbGenEstimator(Estimator):
         else:
             heading += float(x[1, 0])
             cov[3, 3] = float(c[1, 0, 0])
-        self.ctx.publish("pose", PoseEstimate(t=msg.t, agent=msg.agent, device=msg.device,
-                                              position=x[0], heading=wrap_angle(heading), cov=cov))
+        # the graph's marginal, scaled by how far its radio innovations say it is
+        # optimistic, and widened by a contradiction not yet resolved
+        cov[:2, :2] = cov[:2, :2] * max(st.nis, 1.0) + np.eye(2) * st.widen
+        ip = self.params.integrity
+        pr = gaussian_protection_radius(cov[:2, :2], ip.containment)
+        self.ctx.publish("pose", PoseEstimate(
+            t=msg.t, agent=msg.agent, device=msg.device, position=x[0],
+            heading=wrap_angle(heading), cov=cov, protection_radius=pr,
+            trusted=trusted(pr, ip, st.contradicted)))
 
     def _publish_touched(self, t: float) -> None:
         crumbs = self._crumb_ids()
@@ -509,8 +631,10 @@ class BreadcrumbGenEstimator(Estimator):
             cov = np.zeros((4, 4))
             cov[:3, :3] = c[k]
             cov[3, 3] = math.pi ** 2
+            pr = gaussian_protection_radius(cov[:2, :2], self.params.integrity.containment)
             self.ctx.publish("breadcrumbs", PoseEstimate(
-                t=t, agent=crumbs[node], device=node, position=x[k], heading=0.0, cov=cov))
+                t=t, agent=crumbs[node], device=node, position=x[k], heading=0.0, cov=cov,
+                protection_radius=pr, trusted=trusted(pr, self.params.integrity)))
 
     def finish(self) -> None:
         for agent, st in self._agents.items():

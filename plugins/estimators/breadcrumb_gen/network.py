@@ -631,6 +631,13 @@ class GeneralizedElectricalNetwork:
         L = np.zeros((len(allnodes) * d,) * 2)
         b = np.zeros(len(allnodes) * d)
         for k, f in applied:
+            if k == _MRG:             # already in information form over non-anchors
+                m = self._mrg[f]
+                idx = (np.array([where[n] for n in m.nodes])[:, None] * d
+                       + np.arange(d)).ravel()
+                L[np.ix_(idx, idx)] += m.lam
+                b[idx] += m.eta
+                continue
             ns, J, R, y = self._linear_form(k, f)
             idx = np.concatenate([np.arange(where[n] * d, (where[n] + 1) * d) for n in ns])
             Rinv_J = np.linalg.solve(R, J)

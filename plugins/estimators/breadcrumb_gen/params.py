@@ -1,8 +1,10 @@
 """Parameters of ``breadcrumb_gen``, in groups: the base station, the start, the odometry
-edges, the breadcrumbs, the radio edges, the graph window and the heading states."""
+edges, the breadcrumbs, the radio edges, the graph window, the heading states, the
+learned path-loss model, the consistency of the published covariance and integrity."""
 from __future__ import annotations
 
 from firenav_framework import Angle, AngularRate, Params, StartPose, Vec3, param
+from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import start_pose_type
 
@@ -57,11 +59,50 @@ class Radio(Params):
     static_samples: int = param(10, ge=1, description="readings averaged (median) into the "
                                 "single range edge between two fixed nodes")
     gate: float = param(4.0, gt=0, description="innovation [sigmas] above which a range or "
-                        "encounter is dropped (§IV-F)")
+                        "encounter contradicts the graph: it is down-weighted (its "
+                        "variance scaled by (z / gate)^4, so the further off the less it "
+                        "pulls), counted, diagnosed, and widens the firefighter's "
+                        "published covariance (§IV-F drops it)")
     weaken: float = param(2.0, gt=0, description="innovation [sigmas] above which a range's "
                           "variance is inflated (§IV-F)")
     time_match: float = param(1.0, unit="s", gt=0, description="a radio event is tied to the "
                               "firefighter state nearest in time, at most this far")
+
+
+class RadioLearning(Params):
+    """The path-loss model learned online from links of known length (radio_model.py)."""
+
+    enabled: bool = param(True, description="correct the sensor's ranges and encounters "
+                          "with the learned model (false: the sensor's model as given)")
+    steps: int = param(8, ge=1, description="a breadcrumb and the firefighter who dropped "
+                       "it (the base station and a firefighter after the start) are a link "
+                       "of known length for this many steps")
+    sigma_offset: float = param(0.15, unit="decade", gt=0, description="prior std of the "
+                           "log-range offset c (4 dB of RSSI at 1 m are 0.13 at exponent 3)")
+    sigma_slope: float = param(0.3, gt=0, description="prior std of the log-range slope e, the "
+                           "ratio of the building's exponent to the sensor's")
+    sigma_log: float = param(0.2, unit="decade", gt=0, description="spread of one link's "
+                             "log range (shadowing and fading over 10 x the exponent)")
+    min_samples: int = param(20, ge=1, description="links observed before the correction "
+                             "is applied")
+    period: float = param(0.5, unit="s", gt=0, description="at most one observation per "
+                          "link in this time (fading is correlated over a step)")
+
+
+class Consistency(Params):
+    """How the published covariance is kept honest against the radio (integrity)."""
+
+    enabled: bool = param(True, description="judge radio links against the graph as "
+                          "below (false: the paper's rule, a link beyond radio.gate is "
+                          "dropped and the graph's marginal is published as it is)")
+    memory: int = param(10, ge=1, description="radio links over which the normalised "
+                        "innovation (chi-square per degree of freedom) is averaged; the "
+                        "published covariance is scaled by that average when above 1")
+    widen_decay: float = param(0.5, gt=0, le=1, description="after a contradiction the "
+                               "published covariance carries the contradiction's size "
+                               "squared until a link within radio.weaken confirms the "
+                               "graph; each link between weaken and gate multiplies it by "
+                               "this")
 
 
 class Graph(Params):
@@ -72,6 +113,9 @@ class Graph(Params):
     window_max: int = param(200, ge=2, description="past states kept at most while the oldest "
                             "one's heading is unsettled (heading states; never fewer than "
                             "window)")
+    forget_per_update: int = param(4, ge=2, description="states marginalised at most per "
+                                   "update (a closure that settles a long backlog at once "
+                                   "spreads its marginalisation over the next updates)")
     settle_heading_sigma: Angle = param(0.1, unit="rad", gt=0, description="a state is "
                                         "marginalised only once its heading is known this "
                                         "well (heading states)")
@@ -116,3 +160,9 @@ class BreadcrumbGenParams(Params):
     graph: Graph = param(Graph(), description="marginalisation window and solver")
     heading: HeadingStates = param(HeadingStates(), description="heading states (beyond the "
                                    "paper)")
+    learn: RadioLearning = param(RadioLearning(), description="path-loss model learned "
+                                 "online (beyond the paper)")
+    consistency: Consistency = param(Consistency(), description="covariance kept honest "
+                                     "against the radio's innovations")
+    integrity: IntegrityParams = param(IntegrityParams(), description="protection radius "
+                                       "and when a pose is trusted")

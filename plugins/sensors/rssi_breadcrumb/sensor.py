@@ -42,6 +42,9 @@ class RssiBreadcrumbSensor(Sensor):
                                           "episodes (§V-A): threshold, peak, sigma")
         kick: KickRules = param(KickRules(), description="moved-breadcrumb detection on "
                                 "the links between fixed nodes (§V-B/C)")
+        silent_s: float = param(60.0, unit="s", gt=0, description="a dropped breadcrumb "
+                                "nobody has heard for this long is reported silent (a dud "
+                                "if never heard; burned or lost if it fell silent)")
 
     def __init__(self, params: Params, ctx: Context) -> None:
         super().__init__(params, ctx)
@@ -50,6 +53,9 @@ class RssiBreadcrumbSensor(Sensor):
         self._agents: set[str] = set()
         self._encounters = EncounterDetector(p.encounter)
         self._kicks = KickDetector(p.kick, p.base_stations)
+        self._heard: dict[str, float] = {}      # breadcrumb -> t it was last heard [s]
+        self._silent: set[str] = set()          # breadcrumbs reported silent
+        self._checked = -math.inf
 
     # -- input ------------------------------------------------------------------------------
     def handle(self, stream: str, msg) -> None:
@@ -71,6 +77,10 @@ class RssiBreadcrumbSensor(Sensor):
         if problem:
             self.ctx.count(problem)
             return
+        for node in (msg.tx, msg.rx):
+            self._heard[node] = msg.t
+            self._silent.discard(node)
+        self._check_silent(msg.t)
         d = rssi_to_range(rssi, p.rssi_1m_dbm, p.path_loss_exponent)
         pair = tuple(sorted((msg.tx, msg.rx)))
         if msg.tx in self._fixed and msg.rx in self._fixed:
@@ -114,6 +124,27 @@ class RssiBreadcrumbSensor(Sensor):
             if msg.t < t_drop:
                 return "rejected_not_dropped_yet"
         return ""
+
+    def _check_silent(self, t: float) -> None:
+        """Report, once, each dropped breadcrumb nobody has heard for ``silent_s`` while the
+        radio traffic goes on: a dud that never transmitted, or one that burned or was
+        lost. Its links simply stop; the estimator keeps what it learned before."""
+        if t - self._checked < 5.0:
+            return
+        self._checked = t
+        limit = self.params.silent_s
+        for node, t_drop in self._fixed.items():
+            if node in self.params.base_stations or node in self._silent:
+                continue
+            last = self._heard.get(node)
+            if t - (t_drop if last is None else last) < limit:
+                continue
+            self._silent.add(node)
+            self.ctx.count("breadcrumbs_silent")
+            what = ("never heard since its drop (a dud)" if last is None
+                    else f"silent since t = {last:.0f} s (burned or lost)")
+            self.ctx.diagnose(t, "warning", "breadcrumb_silent",
+                              f"breadcrumb {node}: {what}")
 
     def _emit(self, pair: tuple[str, str], ep: Episode) -> None:
         p = self.params

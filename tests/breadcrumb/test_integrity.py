@@ -1,0 +1,87 @@
+"""Integrity of breadcrumb_gen (issue 15 item 1) and the path-loss model it learns online:
+protection radius and trust derived from the published covariance, a contradicting radio
+link down-weighted, counted, said with the place and widening."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from firenav_framework import Range
+from firenav_framework.integrity import gaussian_protection_radius
+from firenav_framework.testing import run_component
+from firenav_plugins.estimators.breadcrumb_gen import BreadcrumbGenEstimator
+from firenav_plugins.estimators.breadcrumb_gen.radio_model import PathLossLearner
+from tests.breadcrumb.test_estimator import PARAMS, errors, walk
+
+
+def test_protection_radius_and_trust_come_from_the_published_covariance():
+    msgs, truth, _ = walk(laps=3, drift_deg_per_lap=10.0)
+    rec = run_component(BreadcrumbGenEstimator, PARAMS, msgs)
+    poses = rec.on("pose")
+    pr = np.array([p.protection_radius for p in poses])
+    expect = np.array([gaussian_protection_radius(p.cov[:2, :2], 0.99) for p in poses])
+    np.testing.assert_allclose(pr, expect)
+    assert np.all(np.isfinite(pr))
+    trusted = np.array([p.trusted for p in poses])
+    np.testing.assert_array_equal(trusted, pr <= 3.0)
+    err = errors(rec, truth)
+    assert np.mean(err <= pr) >= 0.95                 # the 99 % bound holds (with slack)
+    assert not np.any(trusted & (err > 3.0))          # never trusted while > 3 m off
+    assert trusted.sum() >= 10                        # and it is not simply never trusted
+    crumbs = rec.on("breadcrumbs")
+    assert all(math.isfinite(c.protection_radius) for c in crumbs)
+
+
+def contradicted(params: dict):
+    """The loop with one false encounter 15 m from the firefighter at t = 60 s."""
+    msgs, truth, t = walk(laps=2, drift_deg_per_lap=2.0)
+    k = next(i for i, (s, m) in enumerate(msgs) if s == "odo" and m.t >= 60.0)
+    at = msgs[k][1].t
+    msgs.insert(k + 1, ("enc", Range(t=at, agent="ff1", a="ff1", b="base", range_m=0.8,
+                                     sigma_m=1.0, method="rssi_encounter")))
+    rec = run_component(BreadcrumbGenEstimator, params, msgs)
+    return rec, truth, t, at
+
+
+def test_a_contradicting_link_is_down_weighted_counted_said_and_widens():
+    rec, truth, t, at = contradicted(PARAMS)
+    clean = run_component(BreadcrumbGenEstimator, PARAMS, walk(laps=2, drift_deg_per_lap=2.0)[0])
+    # the truth at t = 60 s is 10-20 m from the base: the encounter contradicts the graph
+    assert np.hypot(*truth[np.searchsorted(t, at), :2]) > 10.0
+    said = [d for d in rec.on("diagnostics") if d.code == "radio_contradiction"]
+    assert len(said) == 1 and "near (" in said[0].text and said[0].agent == "ff1"
+    poses, ref = rec.on("pose"), clean.on("pose")
+    k = next(i for i, p in enumerate(poses) if p.t > at)
+    # down-weighted: the pose moves by far less than the 10+ m the link claims
+    assert np.hypot(*(poses[k].position[:2] - ref[k].position[:2])) < 1.5
+    # widened and not trusted until consistent links return
+    assert poses[k].protection_radius > ref[k].protection_radius + 10.0
+    assert not poses[k].trusted
+    assert poses[-1].protection_radius < 1.5 * ref[-1].protection_radius
+    # the paper's rule (consistency off) drops it: no widening
+    rec2, _, _, _ = contradicted({**PARAMS, "consistency": {"enabled": False}})
+    p2 = rec2.on("pose")
+    assert abs(p2[k].protection_radius - ref[k].protection_radius) < 0.2
+
+
+def test_path_loss_model_is_learned_from_links_of_known_length():
+    """Sensor model -40 dBm at 1 m, exponent 3; the building's -44 dBm, 2.2, with 4 dB
+    shadowing: the learned line gives the building's exponent and RSSI at 1 m."""
+    rng = np.random.default_rng(3)
+    p0, n0, p_true, n_true = -40.0, 3.0, -44.0, 2.2
+    learner = PathLossLearner(0.15, 0.3, 0.2, min_samples=20)
+    d = rng.uniform(1.1, 8.0, 400)
+    rssi = p_true - 10 * n_true * np.log10(d) + rng.normal(0, 4.0, len(d))
+    r_sensor = 10 ** ((p0 - rssi) / (10 * n0))
+    assert not learner.ready and learner.correct(2.0, 0.5) == (2.0, 0.5)
+    for rs, dk in zip(r_sensor, d):
+        learner.observe(rs, dk)
+    n, p1 = learner.exponent_and_rssi_1m(n0, p0)
+    assert abs(n - n_true) < 0.25 and abs(p1 - p_true) < 1.5
+    # corrected near ranges (the ones the graph uses) are unbiased in log; the sensor's
+    # were 20 % long
+    corr = np.array([learner.correct(rs, 0.3 * rs)[0] for rs in r_sensor])
+    near = d < 1.6
+    assert abs(np.median(np.log10(corr[near] / d[near]))) < 0.04
+    assert np.median(np.log10(r_sensor[near] / d[near])) > 0.06
