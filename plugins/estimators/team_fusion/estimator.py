@@ -21,11 +21,14 @@ and publishes one :class:`PoseEstimate` per odometry step:
    contradict each other (two inputs that disagree, nothing to arbitrate), the pose is
    their mixture, its protection radius holds every set's 99 % disc, and it is not
    trusted (``inputs_disagree`` diagnostic with the place).
-5. **Floor** by weighted vote of the fused inputs' floors (their stairs evidence) and
+5. **Floor** by vote of the fused inputs' floors (their stairs evidence), one each, and
    the barometer's floor; a tie keeps the floor before.
 6. **Integrity.** ``protection_radius`` from the fused covariance
    (:func:`~firenav_framework.integrity.gaussian_protection_radius`) or the mixture;
-   ``trusted`` from :func:`~firenav_framework.integrity.trusted`.
+   ``trusted`` from :func:`~firenav_framework.integrity.trusted`, and only while at
+   least ``support.inputs`` fused inputs each bound the pose within ``support.radius``
+   on their own: an input that is wrong with a tight covariance can only be caught by
+   another tight input.
 
 Team effects live inside the methods and are used through their poses, not repeated
 here: the RFID EKF's tag database is shared by every reader, the breadcrumb graph's
@@ -198,6 +201,9 @@ class TeamFusionEstimator(Estimator):
                             f"({rivals}): not trusted, radius {radius:.1f} m",
                             agent=agent, key=agent)
         used = {i for h in hyps for i in h.members}
+        support = sum(1 for i in used if gaussian_protection_radius(carried[i].cov, containment)
+                      <= self.params.support.radius)
+        unsupported = support < self.params.support.inputs
         for i, c in enumerate(carried):
             if i not in used:
                 self.ctx.count("rejected_inputs")
@@ -219,14 +225,18 @@ class TeamFusionEstimator(Estimator):
             t=t, agent=agent, device=device, position=np.array([mean[0], mean[1], z]),
             heading=heading, cov=cov4, floor=floor, frame="building",
             protection_radius=radius,
-            trusted=trusted(radius, self.params.integrity, contradicted)))
+            trusted=trusted(radius, self.params.integrity, contradicted or unsupported)))
 
     def _vote(self, st: _Agent, carried: list[_Carried], weights: np.ndarray, z: float,
               t: float) -> int | None:
+        """One vote per fused input that names a floor, the barometer's floor with its
+        weight; a tie keeps the floor before. Votes are counted, not weighted by the
+        fusion weights: inputs that share the INS height agree with each other whatever
+        their covariances say."""
         votes: dict[int, float] = {}
         for c, w in zip(carried, weights):
             if w > 0 and c.floor is not None:
-                votes[c.floor] = votes.get(c.floor, 0.0) + float(w)
+                votes[c.floor] = votes.get(c.floor, 0.0) + 1.0
         baro = st.baro
         if baro is not None and t - baro.t <= self.params.floor.barometer_max_age \
                 and self.ctx.has_building:

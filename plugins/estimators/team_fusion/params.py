@@ -33,10 +33,10 @@ class Gate(Params):
 
 
 class FloorVote(Params):
-    """The floor by weighted vote of the inputs (and the barometer, if there is one)."""
+    """The floor by vote of the inputs (and the barometer, if there is one)."""
 
-    barometer_weight: float = param(0.5, ge=0, description="weight of the barometer's "
-                                    "floor in the vote; the fused inputs' weights sum to 1")
+    barometer_weight: float = param(1.5, ge=0, description="votes of the barometer's "
+                                    "floor (each fused input that names a floor has one)")
     barometer_max_age: float = param(5.0, unit="s", gt=0, description="a barometer height "
                                      "older than this does not vote")
 
@@ -50,6 +50,16 @@ class InputSettings(Params):
                         "gate (false: an input without floor evidence of its own)")
 
 
+class Support(Params):
+    """Redundancy behind a trusted pose: how many inputs must each vouch for it."""
+
+    inputs: int = param(2, ge=1, description="a fused pose is trusted only when at least "
+                        "this many of its fused inputs have on their own a protection "
+                        "radius within `radius` (one method alone is checked by nothing)")
+    radius: float = param(6.0, unit="m", gt=0, description="an input's own protection "
+                          "radius (after `inflate`) up to which it vouches for the pose")
+
+
 class TeamFusionParams(Params):
     inputs: dict[str, InputSettings] = param({}, description="per input stream (e.g. "
                                              "'gen.pose'): covariance factor and whether its "
@@ -59,5 +69,6 @@ class TeamFusionParams(Params):
                                      "pose to the fusion time")
     gate: Gate = param(Gate(), description="consistency gate between inputs")
     floor: FloorVote = param(FloorVote(), description="the floor vote")
+    support: Support = param(Support(), description="redundancy needed for trust")
     integrity: IntegrityParams = param(IntegrityParams(), description="when a fused pose "
                                        "is trusted")
