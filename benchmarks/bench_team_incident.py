@@ -11,7 +11,7 @@ estimators (so every row of a seed comes from the same simulated data):
                      whose tag sites are the plan's doors): INS alone and GEN.
 
     python benchmarks/bench_team_incident.py --seeds 1000-1019 --workers 2 \
-        --json out/team-incident.json
+        --json out/team-incident.json --runs out/team-incident-runs
 
 Figures: pooled horizontal RMSE and p95 [m] over the seeds, the per-run RMSE spread
 (min / median / max), the share of runs that beat INS alone (``dr``), floor right,
@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import copy
 import json
+import pickle
 import sys
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
@@ -148,17 +149,30 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenario", default=None, help="another scenario (name or file)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--runs", default=None, help="folder keeping each seed's errors "
+                    "(a seed already there is not run again)")
     a = ap.parse_args(argv)
     seeds = parse_seeds(a.seeds)
+    keep = Path(a.runs) if a.runs else None
+    runs, todo = [], []
+    for s in seeds:
+        f = keep / f"seed{s}.pkl" if keep else None
+        if f is not None and f.exists():
+            runs.append(pickle.loads(f.read_bytes()))
+        else:
+            todo.append(s)
     with tempfile.TemporaryDirectory(prefix="bench-team-pipe-") as tmp:
         path = Path(tmp) / "incident-ablations.yaml"
         path.write_text(yaml.safe_dump(ablation_pipeline()))
-        jobs = [(str(path), s, a.scenario) for s in seeds]
-        if a.workers > 1:
-            with ProcessPoolExecutor(a.workers) as ex:
-                runs = list(ex.map(run_seed, jobs))
-        else:
-            runs = [run_seed(j) for j in jobs]
+        jobs = [(str(path), s, a.scenario) for s in todo]
+        with ProcessPoolExecutor(max(1, a.workers)) as ex:
+            for r in ex.map(run_seed, jobs):
+                print(f"seed {r['seed']} done", file=sys.stderr, flush=True)
+                if keep is not None:
+                    keep.mkdir(parents=True, exist_ok=True)
+                    (keep / f"seed{r['seed']}.pkl").write_bytes(pickle.dumps(r))
+                runs.append(r)
+    runs.sort(key=lambda r: r["seed"])
     agents = sorted({k[1] for r in runs for k in r["errors"]})
     main_rows = [x for ag in agents for c in METHODS if (x := row(c, ag, runs))]
     abl_rows = [x for ag in agents for c in ABLATIONS if (x := row(c, ag, runs))]
