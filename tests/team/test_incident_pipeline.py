@@ -1,5 +1,5 @@
 """pipelines/incident.yaml end to end on a short copy of the incident (tests/team/
-incident_short.yaml, tuning seed 101): every method runs, team_fusion publishes a pose
+incident_short.yaml, tuning seed 101, 200 particles): every method runs, team_fusion publishes a pose
 for every firefighter, beats INS alone on the pooled error, keeps the floor, and says
 when an input is left out."""
 from __future__ import annotations
@@ -13,6 +13,9 @@ from firenav_framework.evaluation.metrics import pooled_metrics, track_errors
 from firenav_framework.pipeline import load_pipeline
 from firenav_framework.runner import run_pipeline
 
+# under a loaded machine the run can take minutes (about 20 s of CPU alone)
+pytestmark = pytest.mark.timeout(900)
+
 REPO = Path(__file__).resolve().parents[2]
 SHORT = Path(__file__).with_name("incident_short.yaml")
 
@@ -20,7 +23,8 @@ SHORT = Path(__file__).with_name("incident_short.yaml")
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     spec = load_pipeline(REPO / "pipelines" / "incident.yaml",
-                         [f"sources.sim.scenario={SHORT}", "sources.sim.seed=101", "sinks=[]"])
+                         [f"sources.sim.scenario={SHORT}", "sources.sim.seed=101", "sinks=[]",
+                          "estimators.pf.particles=200"])
     return run_pipeline(spec, output_dir=tmp_path_factory.mktemp("incident"))
 
 

@@ -30,36 +30,73 @@ def chi2_2dof_quantile(p: float) -> float:
     return -2.0 * math.log1p(-p)
 
 
-def covariance_intersection(covs: np.ndarray, means: np.ndarray, *, iterations: int = 100,
-                            tol: float = 1e-10) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _sym(c: np.ndarray) -> tuple[float, float, float]:
+    """``(a, b, d)`` of a symmetric 2x2 matrix ``[[a, b], [b, d]]``."""
+    return float(c[0, 0]), 0.5 * float(c[0, 1] + c[1, 0]), float(c[1, 1])
+
+
+def _inv(a: float, b: float, d: float) -> tuple[float, float, float]:
+    det = a * d - b * b
+    return d / det, -b / det, a / det
+
+
+def covariance_intersection(covs: np.ndarray, means: np.ndarray, *, iterations: int = 200,
+                            tol: float = 1e-7) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Covariance intersection of ``n`` estimates, weights minimising ``det P``.
 
     ``covs`` (n, 2, 2) [m^2], ``means`` (n, 2) [m]. Returns ``(mean (2,), cov (2, 2),
-    weights (n,))``. One estimate is returned as it is.
+    weights (n,))``. One estimate is returned as it is; for two the weight is exact
+    (``det P^-1`` is a quadratic in it); for more, the multiplicative fixed point (2x2
+    algebra in floats: this runs for every firefighter at every stride).
     """
-    covs = np.asarray(covs, float)
-    means = np.asarray(means, float)
     n = len(covs)
     if n == 1:
-        return means[0].copy(), covs[0].copy(), np.ones(1)
-    info = np.linalg.inv(covs)                       # (n, 2, 2)
-    w = np.full(n, 1.0 / n)
-    for _ in range(iterations):
-        fused_info = np.einsum("i,ijk->jk", w, info)
-        p = np.linalg.inv(fused_info)
-        # D-optimal multiplicative update: w_i <- w_i tr(I_i P) / 2 (sums to 1)
-        new = w * np.einsum("ijk,kj->i", info, p) / 2.0
-        new = np.maximum(new, 0.0)
-        new /= new.sum()
-        done = float(np.max(np.abs(new - w))) < tol
-        w = new
-        if done:
-            break
-    fused_info = np.einsum("i,ijk->jk", w, info)
-    p = np.linalg.inv(fused_info)
-    p = 0.5 * (p + p.T)
-    mean = p @ np.einsum("i,ijk,ik->j", w, info, means)
-    return mean, p, w
+        return np.asarray(means[0], float).copy(), np.asarray(covs[0], float).copy(), np.ones(1)
+    info = [_inv(*_sym(c)) for c in covs]
+    if n == 2:
+        (a0, b0, d0), (a1, b1, d1) = info
+        # det(I1 + w (I0 - I1)) = det I1 + w c1 + w^2 det(I0 - I1)
+        ya, yb, yd = a0 - a1, b0 - b1, d0 - d1
+        c1 = a1 * yd + d1 * ya - 2.0 * b1 * yb
+        c2 = ya * yd - yb * yb
+        cands = [0.0, 1.0]
+        if c2 < 0:
+            cands.append(min(1.0, max(0.0, -c1 / (2.0 * c2))))
+        f = [c1 * w + c2 * w * w for w in cands]
+        w0 = cands[int(np.argmax(f))]
+        w = [w0, 1.0 - w0]
+    else:
+        w = [1.0 / n] * n
+        for _ in range(iterations):
+            fa = sum(wi * i[0] for wi, i in zip(w, info))
+            fb = sum(wi * i[1] for wi, i in zip(w, info))
+            fd = sum(wi * i[2] for wi, i in zip(w, info))
+            pa, pb, pd = _inv(fa, fb, fd)
+            # D-optimal multiplicative update: w_i <- w_i tr(I_i P) / 2 (sums to 1)
+            new = [wi * (i[0] * pa + 2.0 * i[1] * pb + i[2] * pd) / 2.0
+                   for wi, i in zip(w, info)]
+            total = sum(new)
+            new = [x / total for x in new]
+            done = max(abs(x - y) for x, y in zip(new, w)) < tol
+            w = new
+            if done:
+                break
+    fa = sum(wi * i[0] for wi, i in zip(w, info))
+    fb = sum(wi * i[1] for wi, i in zip(w, info))
+    fd = sum(wi * i[2] for wi, i in zip(w, info))
+    pa, pb, pd = _inv(fa, fb, fd)
+    ya = sum(wi * (i[0] * m[0] + i[1] * m[1]) for wi, i, m in zip(w, info, means))
+    yb = sum(wi * (i[1] * m[0] + i[2] * m[1]) for wi, i, m in zip(w, info, means))
+    mean = np.array([pa * ya + pb * yb, pb * ya + pd * yb])
+    return mean, np.array([[pa, pb], [pb, pd]]), np.array(w)
+
+
+def _mahalanobis2(dx: float, dy: float, a: float, b: float, d: float) -> float:
+    """``[dx dy] S^-1 [dx dy]^T`` for ``S = [[a, b], [b, d]]``; inf if S is singular."""
+    det = a * d - b * b
+    if not det > 0:
+        return math.inf
+    return (d * dx * dx - 2.0 * b * dx * dy + a * dy * dy) / det
 
 
 def gate_matrix(means: np.ndarray, covs: np.ndarray, floors: list[int | None],
@@ -73,13 +110,10 @@ def gate_matrix(means: np.ndarray, covs: np.ndarray, floors: list[int | None],
     """
     n = len(means)
     ok = np.ones((n, n), bool)
+    sym = [_sym(c) for c in covs]
     for i, j in itertools.combinations(range(n), 2):
-        d = means[i] - means[j]
-        s = covs[i] + covs[j]
-        try:
-            m2 = float(d @ np.linalg.solve(s, d))
-        except np.linalg.LinAlgError:
-            m2 = math.inf
+        m2 = _mahalanobis2(float(means[i][0] - means[j][0]), float(means[i][1] - means[j][1]),
+                           sym[i][0] + sym[j][0], sym[i][1] + sym[j][1], sym[i][2] + sym[j][2])
         same_floor = floors[i] is None or floors[j] is None or floors[i] == floors[j]
         ok[i, j] = ok[j, i] = same_floor and m2 <= threshold
     return ok
@@ -118,7 +152,7 @@ def consistent_hypotheses(means: np.ndarray, covs: np.ndarray, floors: list[int 
         idx = list(members)
         mean, cov, w = covariance_intersection(covs[idx], means[idx])
         hyps.append(Hypothesis(members, mean, cov, w))
-    hyps.sort(key=lambda h: float(np.linalg.det(h.cov)))
+    hyps.sort(key=lambda h: float(h.cov[0, 0] * h.cov[1, 1] - h.cov[0, 1] ** 2))
     kept: list[Hypothesis] = []
     for h in hyps:
         if not any(_agree(h, k, threshold) for k in kept):
@@ -127,11 +161,9 @@ def consistent_hypotheses(means: np.ndarray, covs: np.ndarray, floors: list[int 
 
 
 def _agree(a: Hypothesis, b: Hypothesis, threshold: float) -> bool:
-    d = a.mean - b.mean
-    try:
-        return float(d @ np.linalg.solve(a.cov + b.cov, d)) <= threshold
-    except np.linalg.LinAlgError:
-        return False
+    s = a.cov + b.cov
+    return _mahalanobis2(float(a.mean[0] - b.mean[0]), float(a.mean[1] - b.mean[1]),
+                         float(s[0, 0]), float(s[0, 1]), float(s[1, 1])) <= threshold
 
 
 def mixture(hyps: list[Hypothesis], containment: float) -> tuple[np.ndarray, np.ndarray, float]:
