@@ -13,7 +13,8 @@ estimators (so every row of a seed comes from the same simulated data):
     python benchmarks/bench_team_incident.py --seeds 1000-1019 --workers 2 \
         --json out/team-incident.json --runs out/team-incident-runs
 
-Figures: pooled horizontal RMSE and p95 [m] over the seeds, the per-run RMSE spread
+A GEN row is left out for a firefighter without a radio (its pose is then the odometry
+it was given). Figures: pooled horizontal RMSE and p95 [m] over the seeds, the per-run RMSE spread
 (min / median / max), the share of runs that beat INS alone (``dr``), floor right,
 the 95 % ellipse containment and the worst run's share of poses trusted while > 3 m off.
 """
@@ -99,6 +100,12 @@ def row(comp: str, agent: str, runs: list[dict]) -> dict | None:
     if not errs:
         return None
     base = [r["errors"].get(("dr", agent)) for r in runs if (comp, agent) in r["errors"]]
+    if comp == "gen" and all(b is not None and e.horizontal.shape == b.horizontal.shape
+                             and np.allclose(e.horizontal, b.horizontal, atol=1e-3)
+                             for e, b in zip(errs, base)):
+        return None     # no radio: GEN's pose is the odometry it was given
+    if comp == "dr":
+        base = []
     pooled = pooled_metrics(errs)
     per_run = np.array([rmse(e) for e in errs])
     beats = [rmse(e) < rmse(b) for e, b in zip(errs, base) if b is not None]
@@ -113,12 +120,12 @@ def row(comp: str, agent: str, runs: list[dict]) -> dict | None:
             "trusted": pooled.trusted_fraction, "trusted_off_worst": max(off)}
 
 
-def fmt(v, nd=2) -> str:
+def fmt(v, nd=2, unit="") -> str:
     if v is None:
         return "-"
     if isinstance(v, float):
-        return f"{v:.{nd}f}"
-    return str(v)
+        return f"{v:.{nd}f}{unit}"
+    return f"{v}{unit}"
 
 
 def table(rows: list[dict], names: dict[str, str]) -> str:
@@ -130,11 +137,11 @@ def table(rows: list[dict], names: dict[str, str]) -> str:
             f"| {r['agent']} | {names.get(r['component'], r['component'])} | {r['runs']} | "
             f"{fmt(r['rmse_m'])} | {fmt(r['p95_m'])} | {fmt(r['rmse_min'])} / "
             f"{fmt(r['rmse_median'])} / {fmt(r['rmse_max'])} | "
-            f"{fmt(None if r['beats_ins'] is None else 100 * r['beats_ins'], 0)} % | "
-            f"{fmt(None if r['floor_accuracy'] is None else 100 * r['floor_accuracy'], 1)} % | "
-            f"{fmt(None if r['ellipse95'] is None else 100 * r['ellipse95'], 0)} % | "
-            f"{fmt(None if r['trusted'] is None else 100 * r['trusted'], 0)} % | "
-            f"{fmt(100 * r['trusted_off_worst'], 1)} % |")
+            f"{fmt(None if r['beats_ins'] is None else 100 * r['beats_ins'], 0, ' %')} | "
+            f"{fmt(None if r['floor_accuracy'] is None else 100 * r['floor_accuracy'], 1, ' %')} | "
+            f"{fmt(None if r['ellipse95'] is None else 100 * r['ellipse95'], 0, ' %')} | "
+            f"{fmt(None if r['trusted'] is None else 100 * r['trusted'], 0, ' %')} | "
+            f"{fmt(100 * r['trusted_off_worst'], 1, ' %')} |")
     return "\n".join(lines)
 
 
