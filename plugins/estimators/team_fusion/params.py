@@ -1,0 +1,74 @@
+"""Parameters of ``team_fusion``: how old an input may be and how its age is paid for,
+the consistency gate, the floor vote and the integrity group."""
+from __future__ import annotations
+
+from firenav_framework import Angle, Params, param
+from firenav_framework.integrity import IntegrityParams
+
+
+class Propagation(Params):
+    """How an input's last pose is carried to the fusion time along the odometry."""
+
+    max_age: float = param(10.0, unit="s", gt=0, description="an input pose older than this "
+                           "(measurement time) is left out of the fusion")
+    per_metre: float = param(0.05, unit="m/m", ge=0, description="position noise (1 sigma) "
+                             "added per metre the input is carried along the odometry")
+    per_second: float = param(0.05, unit="m/sqrt(s)", ge=0, description="position noise "
+                              "random walk over the input's age")
+    max_speed: float = param(3.0, unit="m/s", gt=0, description="without odometry to carry "
+                             "an input, its age is paid for as this speed times the age "
+                             "(1 sigma)")
+    heading_sigma_max: Angle = param(0.35, unit="rad", gt=0, description="an input's "
+                                     "heading is used to turn the odometry's steps into its "
+                                     "frame only while its 1-sigma heading is below this")
+
+
+class Gate(Params):
+    """The chi-square consistency gate between two inputs."""
+
+    probability: float = param(0.999, gt=0.5, lt=1.0, description="two inputs whose "
+                               "difference lies beyond this quantile of the chi-square "
+                               "distribution (2 degrees of freedom, both covariances) "
+                               "contradict each other")
+
+
+class FloorVote(Params):
+    """The floor by vote of the inputs (and the barometer, if there is one)."""
+
+    barometer_weight: float = param(1.5, ge=0, description="votes of the barometer's "
+                                    "floor (each fused input that names a floor has one)")
+    barometer_max_age: float = param(5.0, unit="s", gt=0, description="a barometer height "
+                                     "older than this does not vote")
+
+
+class InputSettings(Params):
+    """What the fusion assumes of one input stream."""
+
+    inflate: float = param(1.0, ge=1.0, description="factor on the input's covariance (an "
+                           "input whose covariance is known to be optimistic)")
+    floor: bool = param(True, description="the input's floor votes and is checked by the "
+                        "gate (false: an input without floor evidence of its own)")
+
+
+class Support(Params):
+    """Redundancy behind a trusted pose: how many inputs must each vouch for it."""
+
+    inputs: int = param(2, ge=1, description="a fused pose is trusted only when at least "
+                        "this many of its fused inputs have on their own a protection "
+                        "radius within `radius` (one method alone is checked by nothing)")
+    radius: float = param(6.0, unit="m", gt=0, description="an input's own protection "
+                          "radius (after `inflate`) up to which it vouches for the pose")
+
+
+class TeamFusionParams(Params):
+    inputs: dict[str, InputSettings] = param({}, description="per input stream (e.g. "
+                                             "'gen.pose'): covariance factor and whether its "
+                                             "floor counts; streams not named take the "
+                                             "defaults")
+    propagation: Propagation = param(Propagation(), description="carrying each input's last "
+                                     "pose to the fusion time")
+    gate: Gate = param(Gate(), description="consistency gate between inputs")
+    floor: FloorVote = param(FloorVote(), description="the floor vote")
+    support: Support = param(Support(), description="redundancy needed for trust")
+    integrity: IntegrityParams = param(IntegrityParams(), description="when a fused pose "
+                                       "is trusted")

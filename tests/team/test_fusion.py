@@ -1,0 +1,177 @@
+"""team_fusion's fusion core and estimator against analytic expectations: covariance
+intersection of two and three Gaussians, the consistency gate, rival hypotheses."""
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from firenav_framework import Odometry, PoseEstimate
+from firenav_framework.integrity import gaussian_protection_radius
+from firenav_framework.testing import Session
+from firenav_plugins.estimators.team_fusion import TeamFusionEstimator
+from firenav_plugins.estimators.team_fusion.fusion import (chi2_2dof_quantile,
+                                                           consistent_hypotheses,
+                                                           covariance_intersection)
+
+
+def _det_of_ci(covs, w):
+    return float(np.linalg.det(np.linalg.inv(sum(wi * np.linalg.inv(c) for wi, c in zip(w, covs)))))
+
+
+def test_two_symmetric_gaussians_give_the_analytic_ci():
+    # A = diag(1, 4), B = diag(4, 1): by symmetry omega = 1/2, P = (A^-1/2 + B^-1/2)^-1
+    # = diag(1.6, 1.6); x = P (A^-1 a + B^-1 b) / 2 with a = 0, b = (1, 1): (0.2, 0.8)
+    a, b = np.diag([1.0, 4.0]), np.diag([4.0, 1.0])
+    mean, cov, w = covariance_intersection(np.array([a, b]), np.array([[0.0, 0.0], [1.0, 1.0]]))
+    np.testing.assert_allclose(w, [0.5, 0.5], atol=1e-6)
+    np.testing.assert_allclose(cov, np.diag([1.6, 1.6]), atol=1e-6)
+    np.testing.assert_allclose(mean, [0.2, 0.8], atol=1e-6)
+
+
+def test_two_general_gaussians_match_the_det_minimising_omega():
+    a = np.array([[2.0, 0.7], [0.7, 0.5]])
+    b = np.array([[0.6, -0.2], [-0.2, 3.0]])
+    xa, xb = np.array([1.0, -1.0]), np.array([1.5, 0.2])
+    mean, cov, w = covariance_intersection(np.array([a, b]), np.array([xa, xb]))
+    # independent: a fine scan of omega for the least det P
+    omegas = np.linspace(0.0, 1.0, 200001)
+    dets = [_det_of_ci([a, b], (o, 1 - o)) for o in omegas[1:-1]]
+    o = omegas[1:-1][int(np.argmin(dets))]
+    assert w[0] == pytest.approx(o, abs=2e-4)
+    p = np.linalg.inv(o * np.linalg.inv(a) + (1 - o) * np.linalg.inv(b))
+    np.testing.assert_allclose(cov, p, rtol=1e-4)
+    np.testing.assert_allclose(mean, p @ (o * np.linalg.solve(a, xa) + (1 - o) * np.linalg.solve(b, xb)),
+                               atol=1e-4)
+
+
+def test_three_gaussians_no_simplex_point_has_a_smaller_det():
+    rng = np.random.default_rng(3)
+    covs = []
+    for _ in range(3):
+        m = rng.normal(size=(2, 2))
+        covs.append(m @ m.T + 0.2 * np.eye(2))
+    covs = np.array(covs)
+    _, cov, w = covariance_intersection(covs, rng.normal(size=(3, 2)))
+    assert w.sum() == pytest.approx(1.0) and np.all(w >= 0)
+    best = min(_det_of_ci(covs, (i / 100, j / 100, 1 - (i + j) / 100))
+               for i, j in itertools.product(range(101), range(101)) if i + j <= 100
+               and 0 < i and 0 < j and i + j < 100)
+    # the fixed point converges sublinearly: within 0.1 % of the least det in 100 steps
+    assert np.linalg.det(cov) <= best * (1 + 1e-3)
+
+
+def test_ci_stays_consistent_when_the_inputs_share_their_error():
+    # two estimates of the same point with a common error (as two methods fed by the
+    # same INS): the fused covariance must still cover the fused error (NEES ~<= 2)
+    # (cross-covariance S, each marginal as declared)
+    rng = np.random.default_rng(7)
+    ca, cb, shared_cov = np.diag([1.0, 0.3]), np.diag([0.3, 1.0]), np.eye(2) * 0.25
+    m2 = []
+    for _ in range(4000):
+        shared = rng.multivariate_normal([0, 0], shared_cov)
+        ea = shared + rng.multivariate_normal([0, 0], ca - shared_cov)
+        eb = shared + rng.multivariate_normal([0, 0], cb - shared_cov)
+        mean, cov, _ = covariance_intersection(np.array([ca, cb]), np.array([ea, eb]))
+        m2.append(float(mean @ np.linalg.solve(cov, mean)))
+    assert np.mean(m2) <= 2.0
+    # the same data fused as if independent (the Kalman product) is overconfident
+    p_ind = np.linalg.inv(np.linalg.inv(ca) + np.linalg.inv(cb))
+    assert np.trace(p_ind) < np.trace(cov)
+
+
+def test_gate_leaves_out_the_contradicting_input():
+    covs = np.array([np.eye(2) * 0.25] * 3)
+    means = np.array([[0.0, 0.0], [0.4, 0.1], [6.0, 0.0]])
+    hyps = consistent_hypotheses(means, covs, [0, 0, 0], chi2_2dof_quantile(0.999))
+    assert len(hyps) == 1 and hyps[0].members == (0, 1)
+
+
+def test_two_inputs_that_disagree_are_rival_hypotheses():
+    covs = np.array([np.eye(2) * 0.25] * 2)
+    means = np.array([[0.0, 0.0], [6.0, 0.0]])
+    hyps = consistent_hypotheses(means, covs, [0, 0], chi2_2dof_quantile(0.999))
+    assert sorted(h.members for h in hyps) == [(0,), (1,)]
+
+
+# ---- the estimator -------------------------------------------------------------------
+
+def _odometry(t, x):
+    return Odometry(t=t, agent="ff1", device="ff1/imu", t_start=t - 1.0,
+                    delta=np.array([1.0, 0.0, 0.0]), dheading=0.0, cov=np.eye(4) * 1e-4,
+                    position=np.array([x, 0.0, 0.0]), heading=0.0)
+
+
+def _pose(t, x, y, sigma, floor=0):
+    cov = np.diag([sigma ** 2, sigma ** 2, 0.01, 0.01])
+    return PoseEstimate(t=t, agent="ff1", device="ff1/imu", position=np.array([x, y, 0.0]),
+                        heading=0.0, cov=cov, floor=floor)
+
+
+def _run(poses_at):
+    """Odometry steps 1 m east each second; the poses of ``poses_at(t, x)`` before each."""
+    session = Session(TeamFusionEstimator, {})
+    msgs = []
+    for k in range(1, 21):
+        t, x = float(k), float(k)
+        msgs += poses_at(t, x)
+        msgs.append(("dr.odometry", _odometry(t, x)))
+    rec = session.run(msgs)
+    return rec.on("pose"), session, rec
+
+
+def test_estimator_rejects_an_input_that_contradicts_the_others():
+    poses, session, rec = _run(lambda t, x: [
+        ("a.pose", _pose(t, x + 0.1, 0.0, 0.5)), ("b.pose", _pose(t, x - 0.1, 0.1, 0.5)),
+        ("c.pose", _pose(t, x + 8.0, 5.0, 0.5))])
+    assert len(poses) == 20
+    err = [math.hypot(p.position[0] - p.t, p.position[1]) for p in poses]
+    assert max(err) < 0.3
+    # trusted once two inputs vouch for it; the first pose (a alone) is not
+    assert all(p.trusted for p in poses[1:]) and not poses[0].trusted
+    # the first pose is fused from a alone (no odometry yet: fused at each input pose),
+    # each later one from all three
+    assert session.stats.counts["under_test"]["rejected:c.pose"] == 19
+    assert "rejected:a.pose" not in session.stats.counts["under_test"]
+    codes = {d.code for d in rec.on("diagnostics")}
+    assert "input_rejected" in codes
+    for p in poses:
+        assert p.protection_radius == pytest.approx(gaussian_protection_radius(p.cov[:2, :2]))
+
+
+def test_estimator_without_a_majority_is_not_trusted_and_bounds_both():
+    poses, session, rec = _run(lambda t, x: [
+        ("a.pose", _pose(t, x, 0.0, 0.3)), ("b.pose", _pose(t, x + 6.0, 0.0, 0.3))])
+    for p in poses[1:]:     # (the first is a's alone: before the odometry starts)
+        assert not p.trusted
+        # the protection radius holds each hypothesis' position with its own radius
+        for dx in (0.0, 6.0):
+            assert p.protection_radius >= abs(p.position[0] - (p.t + dx)) + \
+                gaussian_protection_radius(np.eye(2) * 0.09) - 1e-9
+    assert "inputs_disagree" in {d.code for d in rec.on("diagnostics")}
+
+
+def test_estimator_carries_an_old_input_along_the_odometry():
+    # b stops reporting after t = 5; until max_age (10 s) it is carried east with the
+    # steps, a's wide pose 1.5 m off does not pull it
+    def poses(t, x):
+        out = [("a.pose", _pose(t, x + 1.5, 0.0, 2.0))]
+        if t <= 5:
+            out.append(("b.pose", _pose(t, x, 0.0, 0.2)))
+        return out
+    poses_out, _, _ = _run(poses)
+    at = {p.t: p for p in poses_out}
+    assert at[12.0].position[0] == pytest.approx(12.0, abs=0.1)
+    assert at[12.0].cov[0, 0] < 0.5
+    # beyond max_age b is left out: a's pose and 2 m sigma are all that is left
+    assert at[20.0].position[0] == pytest.approx(21.5, abs=1e-6)
+    assert at[20.0].cov[0, 0] == pytest.approx(4.0, rel=1e-3)
+
+
+def test_floor_by_vote_of_the_fused_inputs():
+    poses, _, _ = _run(lambda t, x: [
+        ("a.pose", _pose(t, x, 0.0, 0.5, floor=1)), ("b.pose", _pose(t, x, 0.0, 0.5, floor=1)),
+        ("c.pose", _pose(t, x, 0.0, 1.5, floor=None))])
+    assert {p.floor for p in poses} == {1}
