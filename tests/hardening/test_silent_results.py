@@ -44,3 +44,19 @@ def test_a_nan_in_any_parameter_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "p.yaml:1:" in err and "sources[0].time_offset: must be a number, not NaN" in err
     assert "p.yaml:2:" in err and "timeline.duplicate_memory: must be less than or equal" in err
+
+
+def test_the_breadcrumb_graph_window_cannot_be_set_beyond_memory(tmp_path, capsys):
+    """A window of a billion states was accepted and grew the graph without bound."""
+    path = tmp_path / "p.yaml"
+    path.write_text(
+        "sources: [{id: sim, plugin: simulator, scenario: demo, duration: 3}]\n"
+        "sensors: [{id: imu, plugin: foot_imu, input: sim.imu}]\n"
+        "estimators:\n"
+        "  - {id: ins, plugin: zupt_ins, input: imu.imu}\n"
+        "  - {id: gen, plugin: breadcrumb_gen, input: ins.odometry,\n"
+        "     graph: {window_max: 1000000000, max_active_dims: 1000000000}}\n")
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "estimators[1].graph.window_max: " in err and "less than or equal to 10000" in err
+    assert "estimators[1].graph.max_active_dims: " in err

@@ -108,12 +108,12 @@ class Consistency(Params):
 class Graph(Params):
     """The marginalisation window (§IV-E) and the incremental solver."""
 
-    window: int = param(20, ge=2, description="past states per firefighter kept in the graph; "
+    window: int = param(20, ge=2, le=10_000, description="past states per firefighter kept in the graph; "
                         "older ones are marginalised (eq. 17)")
-    window_max: int = param(200, ge=2, description="past states kept at most while the oldest "
+    window_max: int = param(200, ge=2, le=10_000, description="past states kept at most while the oldest "
                             "one's heading is unsettled (heading states; never fewer than "
                             "window)")
-    forget_per_update: int = param(4, ge=2, description="states marginalised at most per "
+    forget_per_update: int = param(4, ge=2, le=10_000, description="states marginalised at most per "
                                    "update (a closure that settles a long backlog at once "
                                    "spreads its marginalisation over the next updates)")
     settle_heading_sigma: Angle = param(0.1, unit="rad", gt=0, description="a state is "
@@ -121,7 +121,7 @@ class Graph(Params):
                                         "well (heading states)")
     relinearize_sigma: float = param(0.1, gt=0, description="re-linearise a range when its "
                                      "linearisation error exceeds this many sigmas")
-    max_active_dims: int = param(600, ge=30, description="dense active set of the incremental "
+    max_active_dims: int = param(600, ge=30, le=20_000, description="dense active set of the incremental "
                                  "solver before refactorising")
 
 
