@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..geometry import wrap_angles
 from .profiles import bump, progress
 
 #: Vertical style of a swing: how rise/fall and horizontal travel are timed.
@@ -160,7 +161,7 @@ class StrideTable:
             jump = np.abs(self.p0[1:] - self.p1[:-1]).max()
             if jump > 1e-9:
                 raise ValueError(f"stance position jumps by {jump:.3g} m between swings")
-            turn = np.abs(np.column_stack([_wrap(self.yaw0[1:] - self.yaw1[:-1]),
+            turn = np.abs(np.column_stack([wrap_angles(self.yaw0[1:] - self.yaw1[:-1]),
                                            self.pitch0[1:] - self.pitch1[:-1],
                                            self.roll0[1:] - self.roll1[:-1]])).max()
             if turn > 1e-9:
@@ -220,9 +221,6 @@ class FootKinematics:
                    angular_accel=z3.copy(), contact=np.ones(n, bool), phase=np.full(n, 0.5),
                    flex=z3.copy())
 
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2 * np.pi) - np.pi
 
 
 def body_rates(euler: np.ndarray, euler_rate: np.ndarray) -> np.ndarray:
@@ -322,9 +320,9 @@ def foot_kinematics(table: StrideTable, t: np.ndarray) -> FootKinematics:
     inv_air = inv / air
 
     # -- orientation ---------------------------------------------------------------
-    dyaw = _wrap(table.yaw1 - table.yaw0)[kc]
+    dyaw = wrap_angles(table.yaw1 - table.yaw0)[kc]
     # Yaw is unwrapped along the table so that rates are smooth across +-pi.
-    yaw_start = table.yaw0[0] + np.concatenate([[0.0], np.cumsum(_wrap(table.yaw1 - table.yaw0))])
+    yaw_start = table.yaw0[0] + np.concatenate([[0.0], np.cumsum(wrap_angles(table.yaw1 - table.yaw0))])
     uy, uy1, uy2 = progress(u_air, *_YAW)
     p0_, p1_ = table.pitch0[kc], table.pitch1[kc]
     r0_, r1_ = table.roll0[kc], table.roll1[kc]

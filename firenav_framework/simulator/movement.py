@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from ..geometry import wrap_angles
 from .gait import DOWN, LEVEL, UP, StrideTable
 from .gaits import (CRAWL_FLEX_DIRECTION_RIGHT, FLEX_DIRECTION_RIGHT, GAITS, POSTURE_CHANGE_S,
                     POSTURE_GAIT, POSTURE_IMU_HEIGHT, POSTURE_PITCH, STAIR_STANCE_S, Gait,
@@ -104,15 +105,12 @@ class BodyTrack:
         """(positions (N, 3), headings (N,) wrapped) at times ``t`` (linear between knots)."""
         pos = np.column_stack([np.interp(t, self.t, self.xyz[:, i]) for i in range(3)])
         hd = np.interp(t, self.t, np.unwrap(self.heading))
-        return pos, (hd + np.pi) % (2 * np.pi) - np.pi
+        return pos, wrap_angles(hd)
 
     def motion_at(self, t: np.ndarray) -> np.ndarray:
         i = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 1)
         return self.motion[i]
 
-
-def _wrap(a):
-    return (a + np.pi) % (2 * np.pi) - np.pi
 
 
 class Walker:
@@ -271,7 +269,7 @@ class Walker:
         travel = np.concatenate([travel, travel[-1:]])
         facing = travel + (np.pi if leg.backwards else 0.0)
         # turn from the current heading to the first facing direction on the spot
-        facing0 = self.heading + _wrap(facing[0] - self.heading)
+        facing0 = self.heading + wrap_angles(facing[0] - self.heading)
         facing += facing0 - facing[0]
         s = np.concatenate([[0.0], s])
         dense = np.vstack([dense[:1], dense])
@@ -310,7 +308,7 @@ class Walker:
 
     def turn(self, heading: float) -> None:
         """Turn on the spot to ``heading`` [rad], at most 60 degrees per stride."""
-        delta = _wrap(heading - self.heading)
+        delta = wrap_angles(heading - self.heading)
         n = int(np.ceil(abs(delta) / MAX_TURN_PER_STRIDE))
         if n == 0:
             return
@@ -333,7 +331,7 @@ class Walker:
             t1 = t0 + swing[i]
             p1 = self._foot_point(xy[i], heading[i], z[i], self.posture)
             yaw1 = heading[i] + self._toe_out() + jitter[i]
-            yaw1 = self.foot_yaw + _wrap(yaw1 - self.foot_yaw)
+            yaw1 = self.foot_yaw + wrap_angles(yaw1 - self.foot_yaw)
             self._swing(t0, t1, p1, yaw1, pitch, gait, int(vstyle[i]), motion)
             self.xy = xy[i]
             self.heading = float(heading[i])
@@ -371,7 +369,7 @@ class Walker:
         climb = np.arctan2(d[:, 1], d[:, 0])               # bottom-to-top direction
         facing = climb if (up or leg.backwards) else climb + np.pi
         heading = self.heading + np.cumsum(np.concatenate(
-            [[_wrap(facing[0] - self.heading)], _wrap(np.diff(facing))]))
+            [[wrap_angles(facing[0] - self.heading)], wrap_angles(np.diff(facing))]))
         dz = np.diff(np.concatenate([[self.z_ground], fz]))
         vstyle = np.where(dz > 0.05, UP, np.where(dz < -0.05, DOWN, LEVEL))
         m = len(fs)

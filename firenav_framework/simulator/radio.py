@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry import wrap_angles
 from .scenario import Fire, Radio
 
 BODY_CONE = np.radians(70.0)   # peer within this angle of the wearer's facing: body loss
@@ -165,7 +166,7 @@ class LinkModel:
             return np.zeros(len(heading))
         d = p_peer[:, :2] - p_self[:, :2]
         ang = np.arctan2(d[:, 1], d[:, 0]) - heading
-        ahead = np.abs((ang + np.pi) % (2 * np.pi) - np.pi) < BODY_CONE
+        ahead = np.abs(wrap_angles(ang)) < BODY_CONE
         return np.where(np.isfinite(heading) & ahead, self.cfg.body_db, 0.0)
 
     def sample(self, t: np.ndarray, a: Node, b: Node, rng: np.random.Generator
