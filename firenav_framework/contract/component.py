@@ -27,7 +27,10 @@ If it does raise, the bus contains the fault by the component's ``on_error`` pol
 (``disable_agent``: no more data of that firefighter; ``restart``: :meth:`reset` the
 firefighter and carry on; ``disable``; ``raise``). Everything a component owns for one
 firefighter therefore lives in per-agent state (:class:`~.context.PerAgent`), so
-:meth:`reset` can forget exactly one firefighter.
+:meth:`reset` can forget exactly one firefighter. What a firefighter left in the
+building (an RFID tag stuck on a door) is not that firefighter's state: it stays
+through :meth:`reset`, so that the others' reads of it keep counting, and the ports
+that publish such facts are named in :attr:`Component.world_outputs`.
 
 Messages are immutable and shared by every receiver: a component never changes a
 received message or its arrays; it publishes new ones.
@@ -54,6 +57,10 @@ class Component(ABC):
     Params: ClassVar[type[Params]] = Params
     inputs: ClassVar[tuple[type[Message], ...]] = ()
     outputs: ClassVar[dict[str, type[Message]]] = {}
+    #: Output ports that publish facts about the building, not about the firefighter
+    #: whose message caused them (a tag deployment): :meth:`reset` keeps them, so the
+    #: same fact again after a reset is a duplicate, not a new publication.
+    world_outputs: ClassVar[tuple[str, ...]] = ()
     #: True when the plugin reads ``ctx.building``: the validator then requires a
     #: building (the pipeline's ``building:`` or a source that brings one).
     needs_building: ClassVar[bool] = False
@@ -86,4 +93,5 @@ class Component(ABC):
         """Called once after the last message: flush buffered output here."""
 
     def reset(self, agent: str) -> None:
-        """Forget everything about ``agent`` (the ``restart`` fault policy calls this)."""
+        """Forget everything about ``agent`` (the ``restart`` fault policy calls this),
+        except the building facts of :attr:`world_outputs`."""

@@ -366,6 +366,9 @@ def check_ports(case: PluginCase) -> None:
     session, rec = case.clean()
     problems = []
     declared = {UNDER_TEST: case.cls.output_ports(case.params)}
+    problems += [f"world_outputs names {port!r}, which is not an output port (declared: "
+                 f"{', '.join(declared[UNDER_TEST])})"
+                 for port in case.cls.world_outputs if port not in declared[UNDER_TEST]]
     if session.host is not None:
         declared[HOST] = type(session.host).output_ports(session.host.params)
     for cid, port, msg in rec.records:
@@ -441,12 +444,14 @@ def _watch(component: Constraint, hook: str, calls: Counter, problems: list[str]
 
 
 # -- bad input --------------------------------------------------------------------------
-def _outputs(rec: Recorder, agents: Iterable[str] | None = None
-             ) -> list[tuple[str, str, Message]]:
-    """What was published apart from diagnostics (for ``agents`` only)."""
+def _outputs(rec: Recorder, agents: Iterable[str] | None = None,
+             leave_out: Iterable[str] = ()) -> list[tuple[str, str, Message]]:
+    """What was published apart from diagnostics and the ports ``leave_out`` (for
+    ``agents`` only)."""
     agents = None if agents is None else set(agents)
+    skip = {"diagnostics", *leave_out}
     return [(cid, port, msg) for cid, port, msg in rec.records
-            if port != "diagnostics" and (agents is None or msg.agent in agents)]
+            if port not in skip and (agents is None or msg.agent in agents)]
 
 
 #: Relative and absolute tolerance of "the same output" after a different history
@@ -640,7 +645,8 @@ def _time_span(sample: list[tuple[str, Message]]) -> float:
 
 @check("reset_refeed")
 def check_reset_refeed(case: PluginCase) -> None:
-    """After reset(agent), the same input again gives a fresh instance's output."""
+    """After reset(agent), the same input again gives a fresh instance's output (its
+    ``world_outputs``, building facts that outlive the firefighter's state, apart)."""
     if case.cls.kind == "source":
         raise NotApplicable("a source holds no per-firefighter state")
     agents = sorted({m.agent for _, m in case.sample if m.agent})
@@ -651,7 +657,8 @@ def check_reset_refeed(case: PluginCase) -> None:
     later = math.ceil(_time_span(case.sample) + 10.0)
     again = [(s, m.shifted(later)) for s, m in own]
     fresh = case.session()
-    fresh_out = _outputs(fresh.run(again), [agent])
+    world = case.cls.world_outputs
+    fresh_out = _outputs(fresh.run(again), [agent], world)
     if not fresh_out:
         raise NotApplicable(f"publishes nothing for '{agent}' from its messages alone")
     used = case.session().start()
@@ -662,7 +669,7 @@ def check_reset_refeed(case: PluginCase) -> None:
     used.finish()
     after = Recorder(used.recorder.cid)
     after.records = used.recorder.records[mark:]
-    got = _outputs(after, [agent])
+    got = _outputs(after, [agent], world)
     k = _first_difference(got, fresh_out)
     if k is not None:
         raise CheckFailed(

@@ -13,29 +13,11 @@ KNOWN: dict[tuple[str, str], dict[str, str]] = {
         "bad_input": "a reading older than its link's last one changes the output and is "
                      "not counted",
     },
-    ("sensor", "rfid_reader"): {
-        "reset_refeed": "tags a firefighter deployed are kept through reset(agent) (they "
-                        "are on the doors), so the same deployment again is a duplicate: "
-                        "decide whether reset forgets them",
-    },
-    ("estimator", "zupt_ins"): {
-        "parameter_docs": "gravity.latitude_deg is in degrees; odometry.length_sigma has no unit",
-    },
-    ("estimator", "dead_reckoning"): {
-        "parameter_docs": "step_noise.length_sigma has no unit (a fraction of the step: unit='1')",
-    },
-    ("estimator", "pdr_ekf"): {
-        "parameter_docs": "process.heading_turn_noise has no unit (rad per rad turned)",
-    },
 }
 
 #: Failures the bundled sample does not provoke but a plugin's own test sample does
 #: (these are not required to fail on the bundled sample).
 KNOWN_WITH_OWN_SAMPLE: dict[tuple[str, str], dict[str, str]] = {
-    ("sensor", "rfid_reader"): {
-        "bad_input": "a read older than the last one of its pass changes the pass and is "
-                     "not counted",
-    },
 }
 
 

@@ -183,6 +183,43 @@ def test_bad_input_defects_are_caught(templates, defect, expected):
     assert expected in failures(Defective, sample_input=ranges())["bad_input"]
 
 
+class FirstSighting(Sensor):
+    """Publishes each range (per firefighter) and, once per run, the first sighting of
+    each anchor (a building fact that outlives any firefighter's reset)."""
+    name = "first_sighting"
+    inputs = (Range,)
+    outputs = {"range": Range, "anchors": Range}
+
+    def __init__(self, params, ctx):
+        super().__init__(params, ctx)
+        self._anchors: set[str] = set()
+
+    def handle(self, stream, msg):
+        self.ctx.publish("range", msg)
+        if msg.b not in self._anchors:
+            self._anchors.add(msg.b)
+            self.ctx.publish("anchors", msg)
+
+
+def test_building_facts_kept_through_reset_pass_only_when_declared_as_world_outputs():
+    sample = ranges(agents=("ff1",))
+    text = failures(FirstSighting, sample_input=sample)["reset_refeed"]
+    assert "reset must forget everything of that firefighter" in text
+
+    class Declared(FirstSighting):
+        """The same, declaring its anchor port a building fact."""
+        world_outputs = ("anchors",)
+
+    assert "reset_refeed" not in failures(Declared, sample_input=sample)
+
+    class Misnamed(FirstSighting):
+        """Declares a port it does not have."""
+        world_outputs = ("anchor",)
+
+    assert "world_outputs names 'anchor', which is not an output port" in failures(
+        Misnamed, sample_input=sample)["ports"]
+
+
 def test_a_reset_that_forgets_nothing_is_caught(templates):
     class Stubborn(templates["estimator"]):
         """Forgets nothing on reset."""

@@ -98,6 +98,23 @@ def test_duplicate_tag_ids_are_counted_and_the_first_placement_stands():
     assert "ff3" in warn.text and "ff1" in warn.text
 
 
+def test_a_reset_firefighter_s_tags_stay_on_their_doors_for_everyone_else():
+    """reset('ff1') (the restart fault policy) forgets ff1's open passes, not the tags
+    ff1 stuck on doors: ff2's later read of one is a read of a deployed tag, and ff1
+    deploying it again is a duplicate."""
+    comp, rec, counts = reader()
+    comp.handle("tags", deploy(5.0, "T4", "ff1"))
+    comp.handle("rfid", read(6.0, tag="T4", agent="ff1"))     # ff1's pass still open
+    comp.reset("ff1")
+    comp.handle("rfid", read(30.0, tag="T4", agent="ff2"))
+    comp.handle("tags", deploy(40.0, "T4", "ff1"))
+    comp.finish()
+    assert [(d.agent, d.t) for d in rec.on("detections")] == [("ff2", 30.0)]
+    assert "unknown_tag_reads" not in counts()
+    assert counts()["duplicate_tag_deployments"] == 1
+    assert [d.agent for d in rec.on("deployments")] == ["ff1"]
+
+
 def test_reader_lines_round_trip_and_drive_the_same_chain():
     lines = [RfidEvent(0.0, "DEPLOY", "ff2/rfid", "E2AA"),
              RfidEvent(0.0, "TAG", "ff2/rfid", "E2AA", -48.5, 3),
@@ -147,6 +164,21 @@ def test_bad_input_is_counted_not_fatal():
     assert len([d for d in rec.on("diagnostics") if d.code == "rfid_bad_line"]) == 1
     (det,) = rec.on("detections")
     assert det.agent == "ff4" and det.tag_id == "E2BB"
+
+
+def test_a_read_older_than_its_pass_is_counted_and_leaves_the_pass_alone():
+    """Reader lines carry the reader's own times: a late line older than the pass's
+    last read would move the pass's peak back in time; it is skipped and counted."""
+    comp, rec, counts = reader()
+    comp.handle("tags", deploy(1.0))
+    for t, rssi in ((10.0, -60), (10.4, -50), (10.8, -55)):
+        comp.handle("rfid", read(t, rssi=rssi))
+    comp.handle("rfid", read(10.2, rssi=-30))            # stronger, but from the past
+    comp.finish()
+    (det,) = rec.on("detections")
+    assert det.t == pytest.approx(10.4) and det.rssi_dbm == -50 and det.reads == 3
+    assert counts()["out_of_order_reads"] == 1
+    assert [d.code for d in rec.on("diagnostics")] == ["rfid_out_of_order"]
 
 
 def test_is_a_conforming_plugin():

@@ -30,6 +30,9 @@ class RfidReaderSensor(Sensor):
     name = "rfid_reader"
     inputs = (TagDetection, TagDeployment, RawFrame)
     outputs = {"detections": TagDetection, "deployments": TagDeployment}
+    #: A deployed tag is on its door: reset(agent) keeps it, so every later reader
+    #: (of any crew) still finds it, and the same deployment again is a duplicate.
+    world_outputs = ("deployments",)
 
     class Params(Params):
         pass_gap: float = param(2.0, unit="s", gt=0, description="reads of a tag closer in "
@@ -118,9 +121,16 @@ class RfidReaderSensor(Sensor):
             self.ctx.count("bad_reads")
             self.ctx.log.debug("read skipped: %s", problem)
             return
-        self._now = max(self._now, t)
         key = (agent, reader, tag_id)
         p = self._passes.get(key)
+        if p is not None and t < p.last:
+            self.ctx.count("out_of_order_reads", reads)
+            self.ctx.warn_once(t, "rfid_out_of_order", f"{reader}: a read of {tag_id} at "
+                               f"t={t:.2f} s is older than its pass's last read "
+                               f"({p.last:.2f} s); such reads are skipped and counted",
+                               agent=agent)
+            return
+        self._now = max(self._now, t)
         if p is not None and (t - p.last > self.params.pass_gap
                               or t - p.first > self.params.max_pass):
             self._emit(self._passes.pop(key))
