@@ -117,11 +117,10 @@ def test_plugins_show_lists_groups_with_dotted_names_units_and_degrees(capsys):
     rows = {ln.split()[0]: ln for ln in out.splitlines() if ln and not ln.startswith(" ")}
     assert rows["detector"].split()[1] == "group"
     assert rows["detector.window"].split()[1:4] == ["float", "0.025", "s"]
-    assert rows["gravity.latitude_deg"].split()[1:5] == ["float", "or", "none", "None"]
+    assert rows["gravity.latitude"].split()[1:6] == ["float", "or", "none", "None", "rad"]
     assert "(60 deg)" in rows["gait.crawl_tilt"] and " rad " in rows["gait.crawl_tilt"]
     assert rows["start.mode"].split()[:2] == ["start.mode", "one"]
-    assert not any(name.endswith(("_deg", "_dps")) for name in rows
-                   if name != "gravity.latitude_deg")
+    assert not any(name.endswith(("_deg", "_dps")) for name in rows)
 
 
 def test_a_misspelt_member_of_a_group_is_located_and_matched_within_its_group():

@@ -60,7 +60,7 @@ class StepNoise(Params):
 
     heading_sigma: Angle = param(0.005, unit="rad", ge=0, description="heading noise per step "
                                  "(INS heading drift)")
-    length_sigma: float = param(0.01, ge=0, description="position noise per step and axis, as "
+    length_sigma: float = param(0.01, unit="1", ge=0, description="position noise per step and axis, as "
                                 "a fraction of the step length")
 
 

@@ -33,7 +33,7 @@ class Process(Params):
     scale_rw: float = param(0.002, unit="1/sqrt(s)", ge=0, description="random walk of lambda")
     heading_rw: float = param(0.5 * DEG, unit="rad/sqrt(s)", ge=0, description="random walk "
                               "of the heading perturbation dtheta (residual gyro bias)")
-    heading_turn_noise: float = param(0.1, ge=0, description="dtheta noise per radian "
+    heading_turn_noise: float = param(0.1, unit="rad/rad", ge=0, description="dtheta noise per radian "
                                       "turned (1 sigma): a foot INS's heading error grows "
                                       "in turns and on stairs far beyond the gyro scale "
                                       "factor")

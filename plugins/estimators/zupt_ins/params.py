@@ -31,9 +31,10 @@ UG = 1e-6 * G_STANDARD
 DEFAULT_THRESHOLDS = {"shoe": 10 ** 8.25, "ared": 10 ** 8.25, "amvd": 10 ** 8.75}
 
 
-def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
-    """WGS-84 normal gravity [m/s^2] (Somigliana) with the free-air height correction."""
-    s2 = math.sin(math.radians(latitude_deg)) ** 2
+def normal_gravity(latitude: float, height_m: float = 0.0) -> float:
+    """WGS-84 normal gravity [m/s^2] (Somigliana) at a geodetic ``latitude`` [rad] with
+    the free-air height correction."""
+    s2 = math.sin(latitude) ** 2
     g0 = 9.7803253359 * (1 + 0.00193185265241 * s2) / math.sqrt(1 - 0.00669437999013 * s2)
     return g0 - 3.086e-6 * height_m
 
@@ -158,20 +159,19 @@ class Gravity(Params):
     """Magnitude of gravity: given, or WGS-84 normal gravity at a latitude and height."""
 
     magnitude: float = param(9.81, unit="m/s^2", gt=9.7, lt=9.9, description="gravity "
-                             "magnitude (ignored when latitude_deg is set)")
-    # A geodetic latitude is a geographic coordinate, given in degrees like the building's
-    # geo-reference, not an angle the filter works with: the unit is in its name.
-    latitude_deg: float | None = param(None, unit="deg", ge=-90, le=90, description="use "
-                                       "WGS-84 normal gravity at this geodetic latitude "
-                                       "(degrees north)")
+                             "magnitude (ignored when latitude is set)")
+    latitude: Angle | None = param(None, unit="rad", ge=-math.pi / 2, le=math.pi / 2,
+                                   description="use WGS-84 normal gravity at this "
+                                   "geodetic latitude (north positive; YAML may say "
+                                   "'52.2 deg')")
     altitude: float = param(0.0, unit="m", description="height for normal gravity")
 
     @property
     def g(self) -> float:
         """Gravity [m/s^2] these parameters give."""
-        if self.latitude_deg is None:
+        if self.latitude is None:
             return self.magnitude
-        return normal_gravity(self.latitude_deg, self.altitude)
+        return normal_gravity(self.latitude, self.altitude)
 
 
 class Height(Params):
@@ -218,7 +218,7 @@ class OdometryNoise(Params):
         "vibration-rectified gyro bias): a step from t0 to t1 [s since navigation began] "
         "adds sigma^2 (t1^2 - t0^2) to its heading variance, so the increments' summed "
         "variance is (sigma t)^2"))
-    length_sigma: float = param(0.02, ge=0, lt=1, description=(
+    length_sigma: float = param(0.02, unit="1", ge=0, lt=1, description=(
         "relative step-length error added along each step's displacement covariance"))
 
     def errors(self) -> UnmodelledErrors:
