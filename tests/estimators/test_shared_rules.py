@@ -134,3 +134,16 @@ def test_a_misspelt_member_of_a_group_is_located_and_matched_within_its_group():
         load_pipeline_text(text, file="p.yaml")
     assert "p.yaml:10:16: estimators[0].detector.windw: unknown parameter; did you mean " \
            "'window'" in str(err.value)
+
+
+def test_normal_gravity_at_a_latitude_given_in_degrees_matches_wgs84():
+    """WGS-84 normal gravity: 9.7803 m/s^2 at the equator, 9.8322 at the pole, 9.8127 at
+    52.2 deg N (Somigliana); the YAML may give the latitude with a unit."""
+    from firenav_plugins.estimators.zupt_ins.params import ZuptInsParams
+    g = {lat: ZuptInsParams.model_validate({"gravity": {"latitude": lat}}).gravity.g
+         for lat in ("0 deg", "90 deg", "52.2 deg")}
+    assert g["0 deg"] == pytest.approx(9.78033, abs=1e-5)
+    assert g["90 deg"] == pytest.approx(9.83218, abs=1e-5)
+    assert g["52.2 deg"] == pytest.approx(9.8127, abs=2e-4)
+    with pytest.raises(ValidationError):
+        ZuptInsParams.model_validate({"gravity": {"latitude": 52.2}})   # radians: > pi/2
