@@ -129,33 +129,10 @@ def _row_range(y0, y1, oy, h, ny, pad):
 
 
 @njit(cache=True)
-def _count_items(segs, ox, oy, h, nx, ny, pad):
-    """Number of (cell, segment) entries the grid would hold (sizes it before allocating)."""
-    total = 0
-    for w in range(segs.shape[0]):
-        x0, y0, x1, y1 = segs[w, 0, 0], segs[w, 0, 1], segs[w, 1, 0], segs[w, 1, 1]
-        j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
-        for j in range(j0, j1 + 1):
-            i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
-            if i1 >= i0:
-                total += i1 - i0 + 1
-    return total
-
-
-@njit(cache=True)
-def _build_cells(segs, ox, oy, h, nx, ny, pad):
-    """CSR lists of the segments touching each cell: (start (nx*ny+1,), items)."""
-    counts = np.zeros(nx * ny + 1, dtype=np.int64)
-    for w in range(segs.shape[0]):
-        x0, y0, x1, y1 = segs[w, 0, 0], segs[w, 0, 1], segs[w, 1, 0], segs[w, 1, 1]
-        j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
-        for j in range(j0, j1 + 1):
-            i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
-            for i in range(i0, i1 + 1):
-                counts[j * nx + i + 1] += 1
-    start = np.cumsum(counts)
-    items = np.empty(start[-1], dtype=np.int64)
-    fill = start[:-1].copy()
+def _visit_cells(segs, ox, oy, h, nx, ny, pad, per_cell, items):
+    """Walk every (segment w, cell c) pair that touches. Counting (``items`` empty):
+    ``per_cell[c + 1] += 1``. Filling: ``items[per_cell[c]] = w; per_cell[c] += 1``."""
+    filling = items.shape[0] > 0
     for w in range(segs.shape[0]):
         x0, y0, x1, y1 = segs[w, 0, 0], segs[w, 0, 1], segs[w, 1, 0], segs[w, 1, 1]
         j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
@@ -163,18 +140,32 @@ def _build_cells(segs, ox, oy, h, nx, ny, pad):
             i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
             for i in range(i0, i1 + 1):
                 c = j * nx + i
-                items[fill[c]] = w
-                fill[c] += 1
-    return start, items
+                if filling:
+                    items[per_cell[c]] = w
+                    per_cell[c] += 1
+                else:
+                    per_cell[c + 1] += 1
+
+
+#: What :func:`_hits` looks for per move.
+FIRST, ANY, ALL, COUNT = 0, 1, 2, 3
 
 
 @njit(cache=True)
-def _first_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, stop_at_any):
-    """Per move: (fraction of the first hit or -1, segment index or -1)."""
+def _hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, mode, out_m, out_w, limit):
+    """Walk each move's cells and test the segments registered there, each once.
+
+    ``FIRST``: per move the fraction of the first hit (ties to the lowest segment index)
+    and its segment, else -1 / -1; ``ANY``: the same but stops at the move's first hit
+    found (its fraction is of that hit). ``ALL``: every touching (move, segment) pair
+    into ``out_m`` / ``out_w``; ``COUNT``: only counted. ALL and COUNT stop once
+    ``limit`` pairs are found (negative: no limit). Returns (fraction (N,), segment
+    (N,), pairs found)."""
     n = p0.shape[0]
     frac = np.full(n, -1.0)
     which = np.full(n, -1, dtype=np.int64)
     stamp = np.full(segs.shape[0], -1, dtype=np.int64)
+    pairs = 0
     for m in range(n):
         x0, y0, x1, y1 = p0[m, 0], p0[m, 1], p1[m, 0], p1[m, 1]
         best = 2.0
@@ -191,46 +182,24 @@ def _first_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, stop_at_any)
                     stamp[w] = m
                     t = _hit_frac(x0, y0, x1, y1, segs[w, 0, 0], segs[w, 0, 1],
                                   segs[w, 1, 0], segs[w, 1, 1])
-                    if t >= 0.0 and (t < best or (t == best and w < bestw)):
+                    if t < 0.0:
+                        continue
+                    if mode >= ALL:
+                        if mode == ALL:
+                            out_m[pairs] = m
+                            out_w[pairs] = w
+                        pairs += 1
+                        if pairs == limit:
+                            return frac, which, pairs
+                    elif t < best or (t == best and w < bestw):
                         best = t
                         bestw = w
-            if stop_at_any and bestw >= 0:
+            if mode == ANY and bestw >= 0:
                 break
         if bestw >= 0:
             frac[m] = best
             which[m] = bestw
-    return frac, which
-
-
-@njit(cache=True)
-def _all_hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, count_only, out_m, out_w,
-              limit):
-    """Every (move, segment) pair that touches; returns the count (fills out_* unless
-    count_only). Stops once ``limit`` pairs are found (a negative limit: no limit)."""
-    stamp = np.full(segs.shape[0], -1, dtype=np.int64)
-    k_out = 0
-    for m in range(p0.shape[0]):
-        x0, y0, x1, y1 = p0[m, 0], p0[m, 1], p1[m, 0], p1[m, 1]
-        j0, j1 = _row_range(y0, y1, oy, h, ny, pad)
-        for j in range(j0, j1 + 1):
-            i0, i1 = _row_span(x0, y0, x1, y1, j, ox, oy, h, nx, pad)
-            for i in range(i0, i1 + 1):
-                c = j * nx + i
-                for k in range(start[c], start[c + 1]):
-                    w = items[k]
-                    if stamp[w] == m:
-                        continue
-                    stamp[w] = m
-                    t = _hit_frac(x0, y0, x1, y1, segs[w, 0, 0], segs[w, 0, 1],
-                                  segs[w, 1, 0], segs[w, 1, 1])
-                    if t >= 0.0:
-                        if not count_only:
-                            out_m[k_out] = m
-                            out_w[k_out] = w
-                        k_out += 1
-                        if k_out == limit:
-                            return k_out
-    return k_out
+    return frac, which, pairs
 
 
 @njit(cache=True)
@@ -355,10 +324,16 @@ class SegmentIndex:
             self.shape = (int(span[0] // self.cell) + 3, int(span[1] // self.cell) + 3)  # (nx, ny)
             # Long segments criss-crossing the grid (a damaged plan) would register in
             # many cells each: coarser cells keep the lists to MAX_GRID_ITEMS entries.
-            if _count_items(*self._cell_args()) <= MAX_GRID_ITEMS:
+            counts = np.zeros(self.shape[0] * self.shape[1] + 1, dtype=np.int64)
+            _visit_cells(*self._cell_args(), counts, np.empty(0, dtype=np.int64))
+            if counts.sum() <= MAX_GRID_ITEMS:
                 break
             cell *= 2.0
-        self._start, self._items = _build_cells(*self._cell_args())
+        # CSR lists of the segments touching each cell: cell c holds
+        # items[start[c]:start[c + 1]].
+        self._start = np.cumsum(counts)
+        self._items = np.empty(self._start[-1], dtype=np.int64)
+        _visit_cells(*self._cell_args(), self._start[:-1].copy(), self._items)
 
     def _cell_args(self):
         return (self.segments, float(self.origin[0]), float(self.origin[1]), self.cell,
@@ -380,36 +355,37 @@ class SegmentIndex:
 
     def crosses(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
         """bool (N,): does move i (p0[i] -> p1[i]) touch any segment?"""
-        a, b = _as_moves(p0, p1)
-        frac, _ = _first_hits(a, b, *self._grid_args(), self._pad, True)
-        return frac >= 0.0
+        return self._walk(p0, p1, ANY)[0] >= 0.0
 
     def first_hit(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(hit (N,), fraction in [0, 1] of the move at the first contact (NaN if none),
         segment index (N,) or -1). Ties in fraction go to the lowest segment index."""
-        a, b = _as_moves(p0, p1)
-        frac, which = _first_hits(a, b, *self._grid_args(), self._pad, False)
+        frac, which, _ = self._walk(p0, p1, FIRST)
         hit = which >= 0
         return hit, np.where(hit, frac, np.nan), which
 
     def all_hits(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every touching (move index, segment index) pair, sorted by move then segment."""
-        a, b = _as_moves(p0, p1)
-        dummy = np.empty(0, dtype=np.int64)
-        n = _all_hits(a, b, *self._grid_args(), self._pad, True, dummy, dummy, -1)
+        n = self._walk(p0, p1, COUNT)[2]
         out_m = np.empty(n, dtype=np.int64)
         out_w = np.empty(n, dtype=np.int64)
-        _all_hits(a, b, *self._grid_args(), self._pad, False, out_m, out_w, -1)
+        self._walk(p0, p1, ALL, out_m, out_w)
         order = np.lexsort((out_w, out_m))
         return out_m[order], out_w[order]
 
     def count_hits(self, p0: np.ndarray, p1: np.ndarray, limit: int) -> int:
         """Number of touching (move, segment) pairs, counted up to ``limit`` (> 0) only, so
         the cost is bounded however many there are."""
+        return int(self._walk(p0, p1, COUNT, limit=max(1, int(limit)))[2])
+
+    def _walk(self, p0: np.ndarray, p1: np.ndarray, mode: int,
+              out_m: np.ndarray | None = None, out_w: np.ndarray | None = None,
+              limit: int = -1) -> tuple[np.ndarray, np.ndarray, int]:
         a, b = _as_moves(p0, p1)
-        dummy = np.empty(0, dtype=np.int64)
-        return int(_all_hits(a, b, *self._grid_args(), self._pad, True, dummy, dummy,
-                             max(1, int(limit))))
+        none = np.empty(0, dtype=np.int64)
+        return _hits(a, b, *self._grid_args(), self._pad, mode,
+                     none if out_m is None else out_m, none if out_w is None else out_w,
+                     limit)
 
     def nearest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance (N,) [m], closest point (N, 2), segment index (N,)); inf/NaN/-1 if empty."""
