@@ -18,8 +18,9 @@ vendor package can):
 
 Every import is contained (:mod:`firenav_framework.safe_import`): a package that
 fails (any exception, ``SystemExit`` or ``KeyboardInterrupt`` included) or hangs at
-import (``$FIRENAV_IMPORT_TIMEOUT``, 30 s) is reported by ``firenav plugins list`` and
-``firenav validate`` and skipped; the other plugins still load.
+import (``$FIRENAV_IMPORT_TIMEOUT``, 30 s; firenav's own modules are not timed) is
+reported by ``firenav plugins list`` and ``firenav validate`` and skipped; the other
+plugins still load.
 
 Names are protected: the first registration of a (kind, name) is the plugin that name
 means, and built-ins register first. Another package offering the same name is never
@@ -33,6 +34,7 @@ import functools
 import importlib.metadata as md
 import inspect
 import logging
+import math
 import re
 from dataclasses import dataclass, field
 
@@ -243,9 +245,11 @@ def plugin_class_problem(cls: object) -> str | None:
 
 def _import(ep: md.EntryPoint, package: str, errors: list[str]) -> object | None:
     """The object an entry point names (``module`` or ``module:attr``), with every failure
-    (a hang at import included) reported instead of raised."""
+    (a hang at import included) reported instead of raised. firenav's own modules are
+    not timed: on a busy machine their import may take longer than a vendor's limit,
+    and a command without its simulator or INS would be no use."""
     try:
-        return import_object(ep.value)
+        return import_object(ep.value, math.inf if package == BUILTIN_DIST else None)
     except PluginImportError as exc:
         errors.append(f"{package}: entry point '{ep.name} = {ep.value}' failed to load: "
                       f"{exc.detail}")

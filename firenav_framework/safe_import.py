@@ -13,6 +13,7 @@ still interrupts the waiting command.
 from __future__ import annotations
 
 import importlib
+import math
 import os
 import sys
 import threading
@@ -45,8 +46,9 @@ def import_timeout() -> float:
 
 
 def call_contained(fn: Callable[[], Any], what: str, timeout: float | None = None) -> Any:
-    """``fn()`` run in a helper thread for at most ``timeout`` s; its result, or a
-    :class:`PluginImportError` saying what went wrong in ``what``."""
+    """``fn()`` run in a helper thread for at most ``timeout`` s (infinity: as long as
+    it takes); its result, or a :class:`PluginImportError` saying what went wrong in
+    ``what``."""
     timeout = import_timeout() if timeout is None else timeout
     box: dict[str, Any] = {}
 
@@ -58,7 +60,7 @@ def call_contained(fn: Callable[[], Any], what: str, timeout: float | None = Non
 
     thread = threading.Thread(target=work, name=f"load {what}", daemon=True)
     thread.start()
-    thread.join(timeout)
+    thread.join(None if math.isinf(timeout) else timeout)
     if thread.is_alive():
         raise PluginImportError(what, f"did not finish within {timeout:g} s (it hangs; "
                                 "FIRENAV_IMPORT_TIMEOUT sets the limit)")
