@@ -35,7 +35,7 @@ import traceback
 from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 from .contract import Component
 from .messages import Diagnostic, Message
@@ -111,12 +111,25 @@ class Bus:
             sub.received.add(agent)
         for name in msg.node_fields:
             sub.received.add(getattr(msg, name))
+        self._guarded(sub, stream, msg, sub.watchdog, "handle", sub.component.handle,
+                      stream, msg)
+
+    def call(self, sub: Subscription, what: str, fn: Callable[[], None], t: float = 0.0) -> None:
+        """Run a lifecycle call (start/finish) under the same fault policy (and the
+        watchdog, with :data:`~firenav_framework.watchdog.LIFECYCLE_FACTOR` limits)."""
+        self._guarded(sub, what, Diagnostic(t=t, component="", level="", code="", text=""),
+                      sub.watchdog and sub.watchdog * LIFECYCLE_FACTOR, what, fn)
+
+    def _guarded(self, sub: Subscription, stream: str, msg: Message, limit: float | None,
+                 what: str, fn: Callable[..., None], *args: Any) -> None:
+        """``fn(*args)`` under the watchdog (``limit`` [s]) and ``sub``'s fault policy; a
+        contained fault is reported against ``stream`` and ``msg``."""
         wd = self.watchdog
         try:
             if wd is not None:
-                wd.enter(cid, sub.watchdog)
+                wd.enter(sub.component.ctx.id, limit, what)
             try:
-                sub.component.handle(stream, msg)
+                fn(*args)
             finally:
                 if wd is not None:
                     wd.leave()
@@ -124,24 +137,6 @@ class Bus:
             if sub.policy == "raise" or not self.contained(exc):
                 raise
             self.report_fault(sub, stream, msg, exc)
-
-    def call(self, sub: Subscription, what: str, fn: Callable[[], None], t: float = 0.0) -> None:
-        """Run a lifecycle call (start/finish) under the same fault policy (and the
-        watchdog, with :data:`~firenav_framework.watchdog.LIFECYCLE_FACTOR` limits)."""
-        wd = self.watchdog
-        try:
-            if wd is not None:
-                wd.enter(sub.component.ctx.id, sub.watchdog and sub.watchdog * LIFECYCLE_FACTOR,
-                         what)
-            try:
-                fn()
-            finally:
-                if wd is not None:
-                    wd.leave()
-        except BaseException as exc:
-            if sub.policy == "raise" or not self.contained(exc):
-                raise
-            self.report_fault(sub, what, Diagnostic(t=t, component="", level="", code="", text=""), exc)
 
     def contained(self, exc: BaseException) -> bool:
         """Whether ``exc``, raised in a component, is that component's fault: an

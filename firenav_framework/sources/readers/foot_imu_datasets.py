@@ -66,8 +66,25 @@ _VICON_KEYS = ("ts", "imu", "gt")
 _WALK_KEYS = ("timestamps", "imu_data", "strideIndex", "GCP")
 
 
+class _ImuColumns:
+    """``accel`` and ``gyro`` views of an ``imu`` (N, 6) array: specific force [m/s^2]
+    then angular rate [rad/s], device frame."""
+
+    imu: np.ndarray
+
+    @property
+    def accel(self) -> np.ndarray:
+        """(N, 3) specific force [m/s^2], device frame."""
+        return self.imu[:, :3]
+
+    @property
+    def gyro(self) -> np.ndarray:
+        """(N, 3) angular rate [rad/s], device frame."""
+        return self.imu[:, 3:]
+
+
 @dataclass(frozen=True)
-class ViconTrial:
+class ViconTrial(_ImuColumns):
     """One PyShoe VICON trial as arrays.
 
     ``ts`` (N,) sample times [s] (start near 0); ``imu`` (N, 6) specific force
@@ -90,19 +107,9 @@ class ViconTrial:
     best_detector: str
     best_error: float
 
-    @property
-    def accel(self) -> np.ndarray:
-        """(N, 3) specific force [m/s^2], device frame."""
-        return self.imu[:, :3]
-
-    @property
-    def gyro(self) -> np.ndarray:
-        """(N, 3) angular rate [rad/s], device frame."""
-        return self.imu[:, 3:]
-
 
 @dataclass(frozen=True)
-class IndoorWalk:
+class IndoorWalk(_ImuColumns):
     """One indoor walk as arrays.
 
     ``ts`` (N,) [s] from 0; ``imu`` (N, 6) as in :class:`ViconTrial` (device frame,
@@ -126,16 +133,6 @@ class IndoorWalk:
     theta_gcp: float
     traveled_distance: float
     traverse_time: float
-
-    @property
-    def accel(self) -> np.ndarray:
-        """(N, 3) specific force [m/s^2], device frame."""
-        return self.imu[:, :3]
-
-    @property
-    def gyro(self) -> np.ndarray:
-        """(N, 3) angular rate [rad/s], device frame."""
-        return self.imu[:, 3:]
 
     @property
     def stride_times(self) -> np.ndarray:
