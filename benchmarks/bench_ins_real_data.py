@@ -266,12 +266,14 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     stored_best = np.array([tr.best_error for tr in trials])
 
     print("PyShoe VICON trials: 2D ARMSE [m] (PyShoe's definition). 'ours' = plugin defaults "
-          "(adaptive detector, retrospective correction); 'before' = the defaults before "
+          "(adaptive detector, retrospective correction); 'main' = main's crawl levels "
+          "before they were chosen on the tuning half; 'previous' = the previous round's "
+          "(crawl levels without the averaged statistic); 'before' = the defaults before "
           "crawling had levels of its own; 'shoe G' = fixed SHOE threshold G "
           "with PyShoe's filter settings; 'opt shoe'/'opt best' = per-trial-optimal errors "
           "stored in the files. Split: tuning (even) / held-out (odd); motion: "
           "foot_imu_datasets.vicon_motion.\n")
-    cols = ["ours", "before", "no retro", "shoe 1e+07", "shoe 1e+08"]
+    cols = ["ours", "main", "previous", "before", "no retro", "shoe 1e+08"]
     print(f"{'#':>2} {'trial':20s} {'split':5s} {'motion':9s} " + " ".join(f"{c:>10s}" for c in cols)
           + f" {'opt shoe':>9s} {'opt best':>9s}")
     for i, (tr, r) in enumerate(zip(trials, rows)):
@@ -281,7 +283,7 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
 
     def summary(name: str, values: np.ndarray) -> None:
         print(f"  {name:46s} mean {values.mean():6.3f}  median {np.median(values):6.3f}  "
-              f"tuning {values[0::2].mean():6.3f}  held-out {values[1::2].mean():6.3f}  "
+              f"tuning {values[0::2].mean():7.4f}  held-out {values[1::2].mean():7.4f}  "
               f"max {values.max():6.3f}")
 
     print(f"\nSummary over the {len(trials)} trials [m]:")
@@ -292,7 +294,7 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
                                                                       for r in rows]))
     summary("stored per-trial-optimal SHOE (tuned on truth)", stored_shoe)
     summary("stored per-trial best of 5 detectors", stored_best)
-    for key in ("ours", "before"):
+    for key in ("ours", "main", "previous", "before"):
         motion_summary(trials, rows, motions, key)
     vert = {k: np.array([r[k].vertical for r in rows]) for k in variants}
     print("\nVertical: mean |dz| against VICON height [m]: "

@@ -48,13 +48,13 @@ class CrawlLevels(Params):
                        "foot is surely still")
     high: float = param(7.2, unit="log10 T", description="SHOE statistic above which the "
                         "foot surely moves")
-    kappa: float = param(0.35, gt=0, lt=1, description="threshold position between stance "
+    kappa: float = param(0.5, gt=0, lt=1, description="threshold position between stance "
                          "floor and swing level (log scale)")
     prominence: float = param(1.0, gt=0, unit="decades", description="swing level above "
                               "stance floor needed to call it a gait")
-    min_stance: float = param(0.025, unit="s", ge=0, description="zero-velocity runs "
+    min_stance: float = param(0.01, unit="s", ge=0, description="zero-velocity runs "
                               "shorter than this are dropped")
-    smoothing: float = param(0.15, unit="s", ge=0, description="the statistic is averaged "
+    smoothing: float = param(0.2, unit="s", ge=0, description="the statistic is averaged "
                              "over this span, centred (at most twice detector.ahead)")
 
     @model_validator(mode="after")
