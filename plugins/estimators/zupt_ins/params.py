@@ -236,8 +236,9 @@ class PoseIntegrity(IntegrityParams):
     yaw_drift_sigma: AngularRate = param(0.17 * DEG, unit="rad/s", ge=0, description=(
         "spread of the heading drift rate that lasts the mission, counted in the poses' "
         "covariance (not in the odometry increments': odometry.yaw_drift_sigma)"))
-    scale_sigma: float = param(0.03, ge=0, lt=1, description="spread of the step-length "
-                               "scale error that lasts the mission (all steps alike)")
+    scale_sigma: float = param(0.03, unit="1", ge=0, lt=1, description="spread of the "
+                               "step-length scale error that lasts the mission (all steps "
+                               "alike)")
     position_sigma: float = param(0.1, unit="m", ge=0, description="horizontal floor of "
                                   "the poses' uncertainty: the IMU is not the point tracked "
                                   "(a footprint, the wearer)")
