@@ -4,7 +4,8 @@
     .venv/bin/python benchmarks/bench_ins_real_data.py --tune     # redo the detector tuning
     .venv/bin/python benchmarks/bench_ins_real_data.py --heading  # odometry heading sigma
     .venv/bin/python benchmarks/bench_ins_real_data.py --xio DIR --zupt-fgo DIR/measData
-                                                   # public recordings, where you have them
+                                   # and the public recordings, where you have them
+    .venv/bin/python benchmarks/bench_ins_real_data.py --integrity  # the poses' covariance
 
 PyShoe VICON set (56 trials): the 2D ARMSE exactly as PyShoe defines it (rotation
 alignment at the first sample 0.8 m from the start; per-sample RMS over x and y, see
@@ -47,6 +48,9 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from firenav_framework.evaluation.metrics import (  # noqa: E402
+    TrackErrors, horizontal_mahalanobis2, integrity_figures)
+from firenav_framework.integrity import gaussian_protection_radius, trusted  # noqa: E402
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
     VICON_MOTIONS, IndoorWalk, ViconTrial, load_indoor_walk, load_vicon_trial, vicon_motion)
 from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams  # noqa: E402
@@ -54,6 +58,7 @@ from firenav_plugins.estimators.zupt_ins import eskf  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.metrics import (  # noqa: E402
     path_length, pyshoe_armse, rigid_fit_2d, shape_error_per_distance, stride_errors)
 from firenav_plugins.estimators.zupt_ins.retro import correct_positions  # noqa: E402
+from firenav_plugins.estimators.zupt_ins.steps import StepTracker  # noqa: E402
 
 FLU = np.array([1.0, -1.0, -1.0])     # the datasets' z-down MicroStrain -> FLU
 RATE = 200.0
@@ -69,6 +74,15 @@ def data_dir() -> Path:
     return Path(env) if env else REPO.parent / "shared" / "data"
 
 
+#: The crawl levels of main before they were chosen again on the tuning half (the
+#: "main" column).
+MAIN = ZuptInsParams(detector={"crawl": {"kappa": 0.35, "min_stance": 0.025,
+                                         "smoothing": 0.15}})
+#: The previous round's defaults (crawl levels without the averaged statistic, the
+#: upright ceiling 10^8.7): the "previous" column.
+PREVIOUS = ZuptInsParams(detector={"high": 8.7, "crawl": {"high": 6.6, "kappa": 0.2,
+                                                          "min_stance": 0.025,
+                                                          "smoothing": 0.0}})
 #: The plugin's defaults before crawling got its own detector levels (the upright
 #: levels throughout), the level-floor height was held and steps settled into their
 #: stance (the "before" column): the same run shows what the changes did.
@@ -232,6 +246,8 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     ours = ZuptInsParams()
     variants = {
         "ours": ours,
+        "main": MAIN,
+        "previous": PREVIOUS,
         "before": BEFORE,
         "no retro": ZuptInsParams(outputs={"retrospective_correction": False}),
         "no height": ZuptInsParams(height={"correction": False}),
@@ -250,12 +266,14 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     stored_best = np.array([tr.best_error for tr in trials])
 
     print("PyShoe VICON trials: 2D ARMSE [m] (PyShoe's definition). 'ours' = plugin defaults "
-          "(adaptive detector, retrospective correction); 'before' = the defaults before "
+          "(adaptive detector, retrospective correction); 'main' = main's crawl levels "
+          "before they were chosen on the tuning half; 'previous' = the previous round's "
+          "(crawl levels without the averaged statistic); 'before' = the defaults before "
           "crawling had levels of its own; 'shoe G' = fixed SHOE threshold G "
           "with PyShoe's filter settings; 'opt shoe'/'opt best' = per-trial-optimal errors "
           "stored in the files. Split: tuning (even) / held-out (odd); motion: "
           "foot_imu_datasets.vicon_motion.\n")
-    cols = ["ours", "before", "no retro", "shoe 1e+07", "shoe 1e+08"]
+    cols = ["ours", "main", "previous", "before", "no retro", "shoe 1e+08"]
     print(f"{'#':>2} {'trial':20s} {'split':5s} {'motion':9s} " + " ".join(f"{c:>10s}" for c in cols)
           + f" {'opt shoe':>9s} {'opt best':>9s}")
     for i, (tr, r) in enumerate(zip(trials, rows)):
@@ -265,7 +283,7 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
 
     def summary(name: str, values: np.ndarray) -> None:
         print(f"  {name:46s} mean {values.mean():6.3f}  median {np.median(values):6.3f}  "
-              f"tuning {values[0::2].mean():6.3f}  held-out {values[1::2].mean():6.3f}  "
+              f"tuning {values[0::2].mean():7.4f}  held-out {values[1::2].mean():7.4f}  "
               f"max {values.max():6.3f}")
 
     print(f"\nSummary over the {len(trials)} trials [m]:")
@@ -276,7 +294,7 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
                                                                       for r in rows]))
     summary("stored per-trial-optimal SHOE (tuned on truth)", stored_shoe)
     summary("stored per-trial best of 5 detectors", stored_best)
-    for key in ("ours", "before"):
+    for key in ("ours", "main", "previous", "before"):
         motion_summary(trials, rows, motions, key)
     vert = {k: np.array([r[k].vertical for r in rows]) for k in variants}
     print("\nVertical: mean |dz| against VICON height [m]: "
@@ -320,6 +338,109 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
           f"(before {max(acc['bend100']):.2f} m), {max(acc['per100']):.2f} m at most "
           f"(before {max(acc['bper100']):.2f} m)")
     print(f"({time.perf_counter() - t0:.0f} s)")
+
+
+# -- integrity ----------------------------------------------------------------------------
+#: The evaluation's alignment: the truth's first this many metres fit the frame.
+FIT_DISTANCE = 5.0
+
+
+def step_poses(params: ZuptInsParams, res: BlockResult, own_cov_only: bool = False
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t (K,), position (K, 3), covariance (K, 4, 4)) of the plugin's ``pose`` output
+    (INS frame) from the engine's events: its StepTracker and PoseUncertainty; with
+    ``own_cov_only`` the filter's covariance alone (what the poses carried before)."""
+    errors = params.odometry.errors()
+    tracker = StepTracker(params.gait.thresholds(), errors)
+    unc = params.integrity.uncertainty(errors)
+    steps = [tracker.step(ev) for ev in res.events]
+    covs = [st.cov_abs if own_cov_only else unc.step(st) for st in steps]
+    return (np.array([st.t for st in steps]), np.array([st.position for st in steps]),
+            np.array(covs))
+
+
+def integrity_errors(params: ZuptInsParams, est: np.ndarray, cov: np.ndarray,
+                     truth: np.ndarray, n_fit: int) -> TrackErrors:
+    """The evaluation's error series of poses ``est`` (K, >=2) with covariances ``cov``
+    (K, 4, 4) against ``truth`` (K, >=2) at the same instants, after the 2D rigid fit on
+    the first ``n_fit`` (the covariances turned with it)."""
+    n = max(2, min(n_fit, len(est)))
+    rot, trans = rigid_fit_2d(est[:n, :2], truth[:n, :2])
+    dxy = est[:, :2] @ rot.T + trans - truth[:, :2]
+    rot4 = np.eye(4)
+    rot4[:2, :2] = rot
+    cov = rot4 @ cov @ rot4.T
+    radius = np.array([gaussian_protection_radius(c[:2, :2], params.integrity.containment)
+                       for c in cov])
+    ok = np.array([trusted(r, params.integrity) for r in radius])
+    return TrackErrors("ff", np.arange(len(est), dtype=float), np.hypot(*dxy.T),
+                       np.full(len(est), np.nan), np.full(len(est), np.nan),
+                       path_length(truth), mahalanobis2=horizontal_mahalanobis2(dxy, cov),
+                       protection=radius, trusted=ok)
+
+
+def walk_integrity(params: ZuptInsParams, w: IndoorWalk, own_cov_only: bool = False
+                   ) -> TrackErrors:
+    """The step poses nearest each surveyed stride, fitted on the first N_ALIGN strides."""
+    res, _ = run(params, w.ts, w.imu)
+    t, pos, cov = step_poses(params, res, own_cov_only)
+    ts = w.ts[w.stride_index]
+    near = np.clip(np.searchsorted(t, ts), 1, len(t) - 1)
+    near = np.where(np.abs(t[near - 1] - ts) < np.abs(t[near] - ts), near - 1, near)
+    return integrity_errors(params, pos[near], cov[near], w.gcp, N_ALIGN)
+
+
+def trial_integrity(params: ZuptInsParams, tr: ViconTrial, own_cov_only: bool = False
+                    ) -> TrackErrors:
+    """The step poses against the VICON foot at the same samples, fitted on the truth's
+    first FIT_DISTANCE metres."""
+    res, _ = run(params, tr.ts, tr.imu)
+    t, pos, cov = step_poses(params, res, own_cov_only)
+    at = np.minimum(np.searchsorted(tr.ts, t), len(tr.ts) - 1)
+    truth = tr.gt[at, :2]
+    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(truth, axis=0).T))))
+    return integrity_errors(params, pos, cov, truth, int(np.searchsorted(walked, FIT_DISTANCE)))
+
+
+def integrity_row(name: str, errs: list) -> None:
+    """One table row: the evaluation's integrity figures pooled over ``errs``, and the
+    worst recording's trusted-while-off share."""
+    pooled = TrackErrors("ff", *(np.concatenate([getattr(e, k) for e in errs]) for k in
+                                 ("t", "horizontal", "vertical", "floor_ok")),
+                         sum(e.distance_m for e in errs),
+                         mahalanobis2=np.concatenate([e.mahalanobis2 for e in errs]),
+                         protection=np.concatenate([e.protection for e in errs]),
+                         trusted=np.concatenate([e.trusted for e in errs]))
+    f = integrity_figures(pooled)
+    worst = max(integrity_figures(e)["trusted_off_fraction"] for e in errs)
+    nees = [integrity_figures(e)["nees_xy"] for e in errs]
+    print(f"| {name} | {len(errs)} | {len(pooled.t)} | {f['nees_xy']:.2f} (median "
+          f"{np.median(nees):.2f}) | {f['ellipse95_containment']:.3f} | "
+          f"{f['protection_containment']:.3f} | {f['trusted_fraction']:.3f} | "
+          f"{100 * f['trusted_off_fraction']:.1f} % (worst {100 * worst:.1f} %) |")
+
+
+def report_integrity(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
+    """NEES, ellipse and protection-radius containment of the ``pose`` output, beside
+    the filter's own covariance alone ("before": what the poses carried), the same runs;
+    the tuning and held-out halves apart."""
+    params = ZuptInsParams()
+    print("| data | covariance | recordings | poses | NEES x,y (2 if consistent; median of "
+          "the recordings') | 95 % ellipse holds the truth | error within the protection "
+          "radius (99 % promised) | trusted | trusted while > 3 m off (worst recording) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    tuning = set(range(len(walks))[WALK_TUNING])
+    motions = [vicon_motion(tr) for tr in trials]
+    for own, label in ((False, "now"), (True, "before")):
+        for half, held in (("tuning", False), ("held out", True)):
+            integrity_row(f"indoor walks, {half} | {label}", [
+                walk_integrity(params, w, own) for i, w in enumerate(walks)
+                if (i not in tuning) == held])
+        for motion in VICON_MOTIONS:
+            for half in ("tune", "held"):
+                errs = [trial_integrity(params, tr, own) for i, (tr, m) in
+                        enumerate(zip(trials, motions)) if m == motion and split(i) == half]
+                integrity_row(f"VICON {motion}, {half} | {label}", errs)
 
 
 # -- public recordings (not on this machine: give their folders) ---------------------------
@@ -423,7 +544,6 @@ def heading_sigma(params: ZuptInsParams, w: IndoorWalk) -> tuple[float, float, f
     """(duration [s], heading drift [deg/s], published heading sigma at the end [deg]) of
     a walk: the odometry's heading variances summed over its steps."""
     from firenav_framework.simulator.recordings import heading_drift
-    from firenav_plugins.estimators.zupt_ins.steps import StepTracker
 
     res, pos = run(params, w.ts, w.imu)
     fit = heading_drift(pos[w.stride_index, :2], w.gcp, w.ts[w.stride_index], n_align=N_ALIGN)
@@ -456,16 +576,12 @@ def main() -> None:
     ap.add_argument("--tune", action="store_true", help="redo the detector tuning (minutes)")
     ap.add_argument("--heading", action="store_true", help="odometry heading sigma against "
                     "the walks' heading drift")
+    ap.add_argument("--integrity", action="store_true", help="NEES, ellipse and protection "
+                    "radius containment of the pose output")
     ap.add_argument("--xio", type=Path, help="folder of x-io Gait-Tracking's short_walk.csv "
                     "and long_walk.csv (the project's repository)")
     ap.add_argument("--zupt-fgo", type=Path, help="Constrained-ZUPT-FGO's measData folder")
     args = ap.parse_args()
-    if args.xio or args.zupt_fgo:
-        if args.xio:
-            report_xio(args.xio)
-        if args.zupt_fgo:
-            report_zupt_fgo(args.zupt_fgo)
-        return
     root = data_dir()
     if not root.is_dir():
         sys.exit(f"datasets not found at {root} (set FIRENAV_SHARED_DATA)")
@@ -473,10 +589,16 @@ def main() -> None:
     walks = [load_indoor_walk(p) for p in sorted((root / "indoor-walks").glob("*.mat"))]
     if args.heading:
         report_heading(walks)
+    elif args.integrity:
+        report_integrity(trials, walks)
     elif args.tune:
         tune(trials, walks)
     else:
         report(trials, walks)
+    if args.xio:
+        report_xio(args.xio)
+    if args.zupt_fgo:
+        report_zupt_fgo(args.zupt_fgo)
 
 
 if __name__ == "__main__":

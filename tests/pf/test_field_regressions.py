@@ -62,8 +62,9 @@ def test_wrong_plan_pose_carries_an_honest_protection_radius(wrong_plan):
 
 def test_crawl_is_not_trusted_while_off():
     pf = measured(FIELD, "field_crawl_search", 101, 300.0)
-    # the crawl leads it astray (5-9 m with the previous crawl detector; 2-3 m now)
-    assert np.max(pf.horizontal) > 2.0
+    # the crawl leads it astray (5-9 m with the first crawl detector, 2-3 m with the
+    # averaged one, 2.0 m with the crawl levels chosen on the VICON tuning half)
+    assert np.max(pf.horizontal) > 1.5
     assert np.mean(pf.trusted & (pf.horizontal > 3.0)) <= 0.02
     finite = np.isfinite(pf.protection)       # and the radius it gives holds the error
     assert np.mean(pf.horizontal[finite] <= pf.protection[finite]) >= 0.95

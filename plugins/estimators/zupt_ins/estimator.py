@@ -14,22 +14,28 @@ are not screened a second time here.
 Ports: ``odometry`` (:class:`Odometry` per step or rest period, INS frame), ``pose``
 (:class:`PoseEstimate` at the same instants, building frame with a ``start`` of mode
 ``pose``), ``state`` (full-rate :class:`PoseEstimate` at ``outputs.state_rate`` Hz, off by
-default) and ``diagnostics`` (alignment, IMU mounting yaw, gaps, rejected input).
+default) and ``diagnostics`` (alignment, IMU mounting yaw, gaps, rejected input). The
+poses' covariance is the filter's plus the errors it does not model
+(:mod:`.pose_uncertainty`); their protection radius comes from it and ``trusted`` from
+the radius (``integrity``: :mod:`firenav_framework.integrity`).
 """
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from firenav_framework import Estimator, ImuBlock, Odometry, PerAgent, PoseEstimate
 from firenav_framework.geometry import planar_rotation, wrap_angle
+from firenav_framework.integrity import gaussian_protection_radius, trusted
 from firenav_framework.messages import Message
 
 from . import eskf
 from .engine import BlockResult, InsEngine
 from .params import ZuptInsParams
+from .pose_uncertainty import PoseUncertainty
 from .retro import correct_positions
 from .steps import Step, StepTracker
 
@@ -62,6 +68,7 @@ class _Device:
 
     device: str
     steps: StepTracker
+    uncertainty: PoseUncertainty
     pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
     engine: InsEngine | None = None
     last_t: float = -math.inf
@@ -73,6 +80,9 @@ class _Device:
     yaw_reported: float | None = None
     still: tuple[float, float] | None = None      # (t, yaw) where the current still run began
     still_runs: list[tuple[float, float]] = field(default_factory=list)  # (duration, dyaw)
+    # (step time, unmodelled pose covariance from then on) of the steps the state output
+    # may still need; the oldest entry is at or before the next state row
+    unmodelled: list[tuple[float, np.ndarray]] = field(default_factory=list)
     bias_judged: bool = False
 
     @property
@@ -157,8 +167,10 @@ class ZuptInsEstimator(Estimator):
         devices = self.state[agent]
         dev = devices.get(device)
         if dev is None:
-            dev = devices[device] = _Device(device, StepTracker(self.params.gait.thresholds(),
-                                                                self.params.odometry.errors()))
+            errors = self.params.odometry.errors()
+            dev = devices[device] = _Device(
+                device, StepTracker(self.params.gait.thresholds(), errors),
+                self.params.integrity.uncertainty(errors))
         return dev
 
     def _new_engine(self, t: np.ndarray, msg: ImuBlock) -> InsEngine:
@@ -291,10 +303,12 @@ class ZuptInsEstimator(Estimator):
             dheading=step.dheading, cov=step.cov, position=step.position,
             heading=step.heading, motion=step.motion))
         placed = self.placement(agent)
-        pos, heading, cov = placed.apply(step.position, step.heading, step.cov_abs)
-        self.ctx.publish("pose", PoseEstimate(t=step.t, agent=agent, device=dev.device,
-                                              position=pos, heading=heading, cov=cov,
-                                              frame=placed.frame))
+        pos, heading, cov = placed.apply(step.position, step.heading,
+                                         dev.uncertainty.step(step))
+        if self.params.outputs.state_rate > 0:
+            dev.unmodelled.append((step.t, dev.uncertainty.last))
+        self.ctx.publish("pose", self._pose(step.t, agent, dev.device, pos, heading, cov,
+                                            placed.frame))
         yaw = dev.steps.mount_yaw
         if yaw is not None and (dev.yaw_reported is None
                                 or abs(wrap_angle(yaw - dev.yaw_reported)) > YAW_REPORT_STEP):
@@ -324,17 +338,30 @@ class ZuptInsEstimator(Estimator):
         first = np.flatnonzero(np.diff(np.concatenate(([dev.state_slot], slots))) > 0)
         dev.state_slot = float(slots[-1])
         iu = np.triu_indices(4)
+        # a step's event comes with the state row of its instant (the filter emits both),
+        # so every step at or before a row is known here, whatever the block sizes
+        step_t = [t for t, _ in dev.unmodelled]
         for row in out[first]:
             cov = np.zeros((4, 4))
             cov[iu] = row[eskf.O_COV:eskf.O_COV + 10]
-            cov = cov + cov.T - np.diag(np.diag(cov))
+            k = bisect_right(step_t, float(row[eskf.O_T])) - 1
+            cov = cov + cov.T - np.diag(np.diag(cov)) + (
+                dev.unmodelled[k][1] if k >= 0 else dev.uncertainty.floor)
             pos, heading, cov = placed.apply(row[eskf.O_POS:eskf.O_POS + 3],
                                              float(row[eskf.O_YAW]), cov)
-            self.ctx.publish("state", PoseEstimate(t=float(row[eskf.O_T]), agent=agent,
-                                                   device=dev.device, position=pos,
-                                                   heading=heading, cov=cov,
-                                                   frame=placed.frame))
+            self.ctx.publish("state", self._pose(float(row[eskf.O_T]), agent, dev.device,
+                                                 pos, heading, cov, placed.frame))
+        keep = bisect_right(step_t, float(out[-1, eskf.O_T])) - 1
+        del dev.unmodelled[:max(keep, 0)]
 
+    def _pose(self, t: float, agent: str, device: str, position: np.ndarray, heading: float,
+              cov: np.ndarray, frame: str) -> PoseEstimate:
+        """A pose with its protection radius and the trusted flag derived from it."""
+        integrity = self.params.integrity
+        radius = gaussian_protection_radius(cov[:2, :2], integrity.containment)
+        return PoseEstimate(t=t, agent=agent, device=device, position=position,
+                            heading=heading, cov=cov, frame=frame, protection_radius=radius,
+                            trusted=trusted(radius, integrity))
 
 
 def _settled(t: np.ndarray, still: np.ndarray, events: np.ndarray) -> int:

@@ -17,9 +17,11 @@ from typing import Literal
 from pydantic import model_validator
 
 from firenav_framework import Angle, AngularRate, Params, StartPose, param
+from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import start_pose_type
 from . import detectors, eskf
+from .pose_uncertainty import PoseUncertainty
 from .steps import GaitThresholds, UnmodelledErrors
 
 G_STANDARD = 9.80665
@@ -47,13 +49,13 @@ class CrawlLevels(Params):
                        "foot is surely still")
     high: float = param(7.2, unit="log10 T", description="SHOE statistic above which the "
                         "foot surely moves")
-    kappa: float = param(0.35, gt=0, lt=1, description="threshold position between stance "
+    kappa: float = param(0.5, gt=0, lt=1, description="threshold position between stance "
                          "floor and swing level (log scale)")
     prominence: float = param(1.0, gt=0, unit="decades", description="swing level above "
                               "stance floor needed to call it a gait")
-    min_stance: float = param(0.025, unit="s", ge=0, description="zero-velocity runs "
+    min_stance: float = param(0.01, unit="s", ge=0, description="zero-velocity runs "
                               "shorter than this are dropped")
-    smoothing: float = param(0.15, unit="s", ge=0, description="the statistic is averaged "
+    smoothing: float = param(0.2, unit="s", ge=0, description="the statistic is averaged "
                              "over this span, centred (at most twice detector.ahead)")
 
     @model_validator(mode="after")
@@ -226,6 +228,27 @@ class OdometryNoise(Params):
                                 yaw_drift_sigma=self.yaw_drift_sigma, length_sigma=self.length_sigma)
 
 
+class PoseIntegrity(IntegrityParams):
+    """The ``pose`` and ``state`` outputs' covariance, protection radius and ``trusted``
+    (``pose_uncertainty``): the odometry's step-to-step errors accumulated, and the
+    heading drift that lasts."""
+
+    yaw_drift_sigma: AngularRate = param(0.17 * DEG, unit="rad/s", ge=0, description=(
+        "spread of the heading drift rate that lasts the mission, counted in the poses' "
+        "covariance (not in the odometry increments': odometry.yaw_drift_sigma)"))
+    scale_sigma: float = param(0.03, unit="1", ge=0, lt=1, description="spread of the "
+                               "step-length scale error that lasts the mission (all steps "
+                               "alike)")
+    position_sigma: float = param(0.1, unit="m", ge=0, description="horizontal floor of "
+                                  "the poses' uncertainty: the IMU is not the point tracked "
+                                  "(a footprint, the wearer)")
+
+    def uncertainty(self, errors: UnmodelledErrors) -> PoseUncertainty:
+        """A fresh :class:`PoseUncertainty` with the odometry's step-to-step ``errors``."""
+        return PoseUncertainty(errors, self.yaw_drift_sigma, self.scale_sigma,
+                               self.position_sigma)
+
+
 class Outputs(Params):
     """What is published besides the step odometry."""
 
@@ -259,6 +282,8 @@ class ZuptInsParams(Params):
     odometry: OdometryNoise = param(OdometryNoise(), description="unmodelled errors in the "
                                     "step covariance")
     outputs: Outputs = param(Outputs(), description="rest odometry, full-rate state output")
+    integrity: PoseIntegrity = param(PoseIntegrity(), description="the poses' covariance, "
+                                     "protection radius and trusted flag")
     start: ZuptInsStart = param(DEFAULT_START, description=(
         "mode 'unknown': poses in the INS's own 'odometry' frame, origin at the start; mode "
         "'pose': placed in the building with the start position and the heading of the "
