@@ -22,7 +22,7 @@ import numpy as np
 from firenav_framework.integrity import gaussian_protection_radius
 
 __all__ = ["covariance_intersection", "gate_matrix", "chi2_2dof_quantile",
-           "Hypothesis", "consistent_hypotheses", "mixture"]
+           "Hypothesis", "consistent_hypotheses", "mixture", "leave_one_out"]
 
 
 def chi2_2dof_quantile(p: float) -> float:
@@ -121,17 +121,24 @@ def gate_matrix(means: np.ndarray, covs: np.ndarray, floors: list[int | None],
 
 @dataclass(frozen=True)
 class Hypothesis:
-    """The fusion of one mutually consistent set of inputs (their indices ``members``)."""
+    """The fusion of one mutually consistent set of inputs (their indices ``agreeing``),
+    of which ``members`` are fused with CI ``weights``."""
 
     members: tuple[int, ...]
     mean: np.ndarray
     cov: np.ndarray
     weights: np.ndarray
+    agreeing: tuple[int, ...] = ()
 
 
 def consistent_hypotheses(means: np.ndarray, covs: np.ndarray, floors: list[int | None],
-                          threshold: float) -> list[Hypothesis]:
+                          threshold: float, looser: float = math.inf) -> list[Hypothesis]:
     """The largest sets of pairwise consistent inputs, each fused by covariance intersection.
+
+    Within a set, an input whose covariance trace exceeds ``looser`` times the tightest
+    member's is not fused: it agrees with the set, but what little it adds is carried by
+    the errors all inputs share (their weight in the intersection would be small, their
+    bias not).
 
     Sets of the largest size are found by enumeration (a firefighter has a handful of
     inputs); several sets of that size whose fusions are consistent with each other are
@@ -147,11 +154,14 @@ def consistent_hypotheses(means: np.ndarray, covs: np.ndarray, floors: list[int 
                 if all(ok[i, j] for i, j in itertools.combinations(c, 2))]
         if best:
             break
+    traces = covs[:, 0, 0] + covs[:, 1, 1]
     hyps = []
     for members in best:
-        idx = list(members)
+        tight = min(traces[i] for i in members)
+        fused = tuple(i for i in members if traces[i] <= looser * tight)
+        idx = list(fused)
         mean, cov, w = covariance_intersection(covs[idx], means[idx])
-        hyps.append(Hypothesis(members, mean, cov, w))
+        hyps.append(Hypothesis(fused, mean, cov, w, members))
     hyps.sort(key=lambda h: float(h.cov[0, 0] * h.cov[1, 1] - h.cov[0, 1] ** 2))
     kept: list[Hypothesis] = []
     for h in hyps:
@@ -183,3 +193,23 @@ def mixture(hyps: list[Hypothesis], containment: float) -> tuple[np.ndarray, np.
         cov += (h.cov + np.outer(d, d)) / len(hyps)
         radius = max(radius, float(np.hypot(*d)) + gaussian_protection_radius(h.cov, containment))
     return mean, cov, radius
+
+
+def leave_one_out(h: Hypothesis, means: np.ndarray, covs: np.ndarray, k: int
+                  ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The fusion of hypothesis ``h`` without its member ``k`` (an index into ``means``
+    (n, 2) [m] and ``covs`` (n, 2, 2) [m^2]): ``(mean, cov)`` with the remaining CI
+    weights renormalised, or None when the others carry (almost) no weight."""
+    pos = h.members.index(k)
+    rest = 1.0 - float(h.weights[pos])
+    if rest < 1e-6:
+        return None
+    info = np.zeros((2, 2))
+    y = np.zeros(2)
+    for j, w in zip(h.members, h.weights):
+        if j != k and w > 0:
+            inv = np.linalg.inv(covs[j])
+            info += w * inv
+            y += w * inv @ means[j]
+    cov = np.linalg.inv(info / rest)
+    return cov @ (y / rest), cov

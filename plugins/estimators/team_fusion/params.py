@@ -2,6 +2,9 @@
 the consistency gate, the floor vote and the integrity group."""
 from __future__ import annotations
 
+import math
+from typing import Literal
+
 from firenav_framework import Angle, Params, param
 from firenav_framework.integrity import IntegrityParams
 
@@ -18,6 +21,10 @@ class Propagation(Params):
     max_speed: float = param(3.0, unit="m/s", gt=0, description="without odometry to carry "
                              "an input, its age is paid for as this speed times the age "
                              "(1 sigma)")
+    wait_for: float = param(1.5, unit="s", ge=0, description="a step is fused once every "
+                            "input whose last pose is at most this much older than the step "
+                            "before has sent its pose of this step (or at the next step); "
+                            "0: the inputs that answered the step before")
     heading_sigma_max: Angle = param(0.35, unit="rad", gt=0, description="an input's "
                                      "heading is used to turn the odometry's steps into its "
                                      "frame only while its 1-sigma heading is below this")
@@ -30,6 +37,9 @@ class Gate(Params):
                                "difference lies beyond this quantile of the chi-square "
                                "distribution (2 degrees of freedom, both covariances) "
                                "contradict each other")
+    looser: float = param(10.0, gt=1.0, description="an input of the consistent set "
+                          "whose covariance trace exceeds this times the tightest member's "
+                          "is not fused (it would add bias shared by all, little information)")
 
 
 class FloorVote(Params):
@@ -60,6 +70,23 @@ class Support(Params):
                           "radius (after `inflate`) up to which it vouches for the pose")
 
 
+class Quality(Params):
+    """Each input's covariance factor learned online from its consistency with the fused pose."""
+
+    enabled: bool = param(True, description="learn a covariance factor per firefighter and "
+                          "input from the input's disagreement with the fused pose")
+    time_constant: float = param(30.0, unit="s", gt=0, description="time constant of the "
+                                 "exponentially weighted mean of the disagreement")
+    reference: Literal["others", "fused"] = param("others", description="what an input "
+                                                  "is compared with: the fusion of the other "
+                                                  "inputs (with both covariances) or the fused "
+                                                  "pose (with the input's alone)")
+    margin: float = param(8.0, ge=1.0, description="the factor is this times the mean "
+                          "disagreement (room for the disagreement's spread)")
+    max_factor: float = param(1e4, ge=1.0, description="largest factor learned (and the "
+                              "largest disagreement counted from one step)")
+
+
 class TeamFusionParams(Params):
     inputs: dict[str, InputSettings] = param({}, description="per input stream (e.g. "
                                              "'gen.pose'): covariance factor and whether its "
@@ -70,5 +97,6 @@ class TeamFusionParams(Params):
     gate: Gate = param(Gate(), description="consistency gate between inputs")
     floor: FloorVote = param(FloorVote(), description="the floor vote")
     support: Support = param(Support(), description="redundancy needed for trust")
+    quality: Quality = param(Quality(), description="covariance factors learned online")
     integrity: IntegrityParams = param(IntegrityParams(), description="when a fused pose "
                                        "is trusted")
