@@ -227,8 +227,7 @@ class TeamFusionEstimator(Estimator):
             for k, c in enumerate(carried):
                 covs[k] *= st.quality.factor(c.stream)
                 c.cov = covs[k]
-        hyps = consistent_hypotheses(means, covs, [c.floor for c in carried], self._threshold,
-                                     self.params.gate.looser)
+        hyps = consistent_hypotheses(means, covs, [c.floor for c in carried], self._threshold)
         containment = self.params.integrity.containment
         if len(hyps) == 1:
             mean, cov = hyps[0].mean, hyps[0].cov
@@ -243,7 +242,7 @@ class TeamFusionEstimator(Estimator):
             self.ctx.report(t, "inputs_disagree", f"the inputs disagree with no majority "
                             f"({rivals}): not trusted, radius {radius:.1f} m",
                             agent=agent, key=agent)
-        used = {i for h in hyps for i in h.agreeing}
+        used = {i for h in hyps for i in h.members}
         support = sum(1 for i in used if gaussian_protection_radius(carried[i].cov, containment)
                       <= self.params.support.radius)
         unsupported = support < self.params.support.inputs
@@ -277,12 +276,8 @@ class TeamFusionEstimator(Estimator):
                cov: np.ndarray, t: float) -> None:
         """Each input's disagreement with the team without it: for a fused input, the
         fusion of the others in its set (skipped when it is fused alone or they carry no
-        weight); for one left out or not fused, the fused pose."""
-        mode = self.params.quality.reference
+        weight); for one left out, the fused pose."""
         for k, c in enumerate(carried):
-            if mode == "fused":
-                st.quality.update(c.stream, t, means[k], raw[k], mean)
-                continue
             home = next((h for h in hyps if k in h.members), None)
             if home is None:
                 st.quality.update(c.stream, t, means[k], raw[k], mean, cov)

@@ -121,24 +121,17 @@ def gate_matrix(means: np.ndarray, covs: np.ndarray, floors: list[int | None],
 
 @dataclass(frozen=True)
 class Hypothesis:
-    """The fusion of one mutually consistent set of inputs (their indices ``agreeing``),
-    of which ``members`` are fused with CI ``weights``."""
+    """The fusion of one mutually consistent set of inputs (their indices ``members``)."""
 
     members: tuple[int, ...]
     mean: np.ndarray
     cov: np.ndarray
     weights: np.ndarray
-    agreeing: tuple[int, ...] = ()
 
 
 def consistent_hypotheses(means: np.ndarray, covs: np.ndarray, floors: list[int | None],
-                          threshold: float, looser: float = math.inf) -> list[Hypothesis]:
+                          threshold: float) -> list[Hypothesis]:
     """The largest sets of pairwise consistent inputs, each fused by covariance intersection.
-
-    Within a set, an input whose covariance trace exceeds ``looser`` times the tightest
-    member's is not fused: it agrees with the set, but what little it adds is carried by
-    the errors all inputs share (their weight in the intersection would be small, their
-    bias not).
 
     Sets of the largest size are found by enumeration (a firefighter has a handful of
     inputs); several sets of that size whose fusions are consistent with each other are
@@ -154,14 +147,11 @@ def consistent_hypotheses(means: np.ndarray, covs: np.ndarray, floors: list[int 
                 if all(ok[i, j] for i, j in itertools.combinations(c, 2))]
         if best:
             break
-    traces = covs[:, 0, 0] + covs[:, 1, 1]
     hyps = []
     for members in best:
-        tight = min(traces[i] for i in members)
-        fused = tuple(i for i in members if traces[i] <= looser * tight)
-        idx = list(fused)
+        idx = list(members)
         mean, cov, w = covariance_intersection(covs[idx], means[idx])
-        hyps.append(Hypothesis(fused, mean, cov, w, members))
+        hyps.append(Hypothesis(members, mean, cov, w))
     hyps.sort(key=lambda h: float(h.cov[0, 0] * h.cov[1, 1] - h.cov[0, 1] ** 2))
     kept: list[Hypothesis] = []
     for h in hyps:

@@ -2,9 +2,6 @@
 the consistency gate, the floor vote and the integrity group."""
 from __future__ import annotations
 
-import math
-from typing import Literal
-
 from firenav_framework import Angle, Params, param
 from firenav_framework.integrity import IntegrityParams
 
@@ -37,9 +34,6 @@ class Gate(Params):
                                "difference lies beyond this quantile of the chi-square "
                                "distribution (2 degrees of freedom, both covariances) "
                                "contradict each other")
-    looser: float = param(10.0, gt=1.0, description="an input of the consistent set "
-                          "whose covariance trace exceeds this times the tightest member's "
-                          "is not fused (it would add bias shared by all, little information)")
 
 
 class FloorVote(Params):
@@ -71,16 +65,12 @@ class Support(Params):
 
 
 class Quality(Params):
-    """Each input's covariance factor learned online from its consistency with the fused pose."""
+    """Each input's covariance factor learned online from its consistency with the others."""
 
     enabled: bool = param(True, description="learn a covariance factor per firefighter and "
-                          "input from the input's disagreement with the fused pose")
+                          "input from the input's disagreement with the other inputs")
     time_constant: float = param(30.0, unit="s", gt=0, description="time constant of the "
                                  "exponentially weighted mean of the disagreement")
-    reference: Literal["others", "fused"] = param("others", description="what an input "
-                                                  "is compared with: the fusion of the other "
-                                                  "inputs (with both covariances) or the fused "
-                                                  "pose (with the input's alone)")
     margin: float = param(8.0, ge=1.0, description="the factor is this times the mean "
                           "disagreement (room for the disagreement's spread)")
     max_factor: float = param(1e4, ge=1.0, description="largest factor learned (and the "

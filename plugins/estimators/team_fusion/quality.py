@@ -1,13 +1,16 @@
-"""Each input's consistency with the fused pose, learned online: a covariance factor per
-firefighter and input stream (never from the truth).
+"""Each input's consistency with the other inputs, learned online: a covariance factor
+per firefighter and input stream (never from the truth).
 
 At every fusion step, input ``i`` (horizontal mean ``x_i`` [m], covariance ``P_i``
-[m^2] as carried, before this factor) is compared with the fused position ``x``:
-``q = (x_i - x)^T P_i^-1 (x_i - x) / 2``, whose mean is at most 1 for an input whose
-covariance holds its error (the fused pose being at least as good as the input). An
+[m^2] as carried, before this factor) is compared with a reference ``r`` with
+covariance ``R``: the fusion of the other inputs of its consistent set, or for an input
+left out, the fused pose (see the estimator). ``q = (x_i - r)^T (P_i + R)^-1
+(x_i - r) / 2`` has mean 1 when both covariances hold their errors. ``margin`` times an
 exponentially weighted mean of ``q`` over ``time_constant`` seconds is the input's
-factor, never below 1 and at most ``max_factor``: covariance matching (Mehra 1972), the
-inputs' innovation consistency against the team's answer.
+factor, never below 1 and at most ``max_factor``: covariance matching (Mehra 1972) on
+the inputs' innovations against each other. The tightest input's reference is the
+looser others, so its ``q`` stays small while theirs grows when it contradicts them:
+they widen until they agree with it, rather than out-voting it.
 """
 from __future__ import annotations
 
