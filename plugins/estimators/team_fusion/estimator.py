@@ -4,26 +4,33 @@
 alone, the particle filter, ORCA map matching, the RFID EKF, breadcrumb GEN: whatever
 the crew's kit lets run; each is optional), the building-frame odometry of the
 firefighter (``dead_reckoning``'s ``odometry``) and, where fitted, the barometer height;
-and publishes one :class:`PoseEstimate` per odometry step:
+and publishes one :class:`PoseEstimate` per odometry step (a step twice when corrected, 0.):
 
+0. **Wait.** A step is fused once every input that answered a recent step has sent its
+   pose of this one (the methods run on the same odometry and answer after it), at the
+   latest when the next step arrives; an input's pose of a step already published (it
+   skipped the one before) makes that step published again, corrected.
 1. **Carry.** Each input's last pose is carried to the step's time along the odometry
    (the odometry's steps turned into that input's heading where the input knows its
    heading), its covariance grown with the distance carried and the age; inputs older
    than ``propagation.max_age`` are left out.
-2. **Gate.** Two inputs contradict each other when their difference lies beyond the
+2. **Learn** each input's covariance factor online from its disagreement with the
+   other inputs (:mod:`.quality`), applied before the gate: an input that contradicts
+   the others widens until it agrees, the tightest one is not out-voted.
+3. **Gate.** Two inputs contradict each other when their difference lies beyond the
    chi-square gate with both covariances, or they name different floors. The largest
    set of mutually consistent inputs is fused; an input outside it is left out,
    counted (``rejected_inputs``, ``rejected:<stream>``) and reported with the place.
-3. **Fuse.** Covariance intersection of the set (:mod:`.fusion`): the inputs share the
+4. **Fuse.** Covariance intersection of the set (:mod:`.fusion`): the inputs share the
    foot-INS odometry, so their errors are correlated by an unknown amount. Height and
    heading take the same weights.
-4. **Rival sets.** When the inputs split into rival sets of the same size that
+5. **Rival sets.** When the inputs split into rival sets of the same size that
    contradict each other (two inputs that disagree, nothing to arbitrate), the pose is
    their mixture, its protection radius holds every set's 99 % disc, and it is not
    trusted (``inputs_disagree`` diagnostic with the place).
-5. **Floor** by vote of the fused inputs' floors (their stairs evidence), one each, and
+6. **Floor** by vote of the fused inputs' floors (their stairs evidence), one each, and
    the barometer's floor; a tie keeps the floor before.
-6. **Integrity.** ``protection_radius`` from the fused covariance
+7. **Integrity.** ``protection_radius`` from the fused covariance
    (:func:`~firenav_framework.integrity.gaussian_protection_radius`) or the mixture;
    ``trusted`` from :func:`~firenav_framework.integrity.trusted`, and only while at
    least ``support.inputs`` fused inputs each bound the pose within ``support.radius``
