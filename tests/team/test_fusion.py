@@ -224,3 +224,23 @@ def test_floor_by_vote_of_the_fused_inputs():
         ("a.pose", _pose(t, x, 0.0, 0.5, floor=1)), ("b.pose", _pose(t, x, 0.0, 0.5, floor=1)),
         ("c.pose", _pose(t, x, 0.0, 1.5, floor=None))])
     assert {p.floor for p in poses} == {1}
+
+
+def test_a_step_is_published_again_when_an_input_that_was_not_waited_for_answers():
+    # a skips step 3; with wait_for 0 step 4 is not held for it (it did not answer step
+    # 3): step 4 is fused with a's pose of step 2 carried, then again with a's pose of 4
+    msgs = []
+    for k in range(1, 7):
+        t = float(k)
+        msgs.append(("dr.odometry", _odometry(t, t)))
+        if k != 3:
+            msgs.append(("a.pose", _pose(t, t, 0.3 * k, 0.5)))
+    rec = Session(TeamFusionEstimator, {"propagation": {"wait_for": 0.0}}).run(msgs)
+    poses = rec.on("pose")
+    assert [p.t for p in poses] == [2.0, 3.0, 4.0, 4.0, 5.0, 6.0]
+    # step 3 (at the next step's odometry) and the first step 4: a's pose of 2 carried
+    assert poses[1].position[1] == pytest.approx(0.6) and poses[2].position[1] == pytest.approx(0.6)
+    assert poses[3].position[1] == pytest.approx(1.2)
+    # with the default wait a skipped step still holds the next one for a: once each
+    rec = Session(TeamFusionEstimator, {}).run(msgs)
+    assert [p.t for p in rec.on("pose")] == [2.0, 3.0, 4.0, 5.0, 6.0]
