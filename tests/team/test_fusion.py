@@ -12,6 +12,7 @@ from firenav_framework import Odometry, PoseEstimate
 from firenav_framework.integrity import gaussian_protection_radius
 from firenav_framework.testing import Session
 from firenav_plugins.estimators.team_fusion import TeamFusionEstimator
+from firenav_plugins.estimators.team_fusion.quality import InputQuality
 from firenav_plugins.estimators.team_fusion.fusion import (chi2_2dof_quantile,
                                                            consistent_hypotheses,
                                                            covariance_intersection)
@@ -110,9 +111,9 @@ def _pose(t, x, y, sigma, floor=0):
                         heading=0.0, cov=cov, floor=floor)
 
 
-def _run(poses_at):
+def _run(poses_at, params=None):
     """Odometry steps 1 m east each second; the poses of ``poses_at(t, x)`` before each."""
-    session = Session(TeamFusionEstimator, {})
+    session = Session(TeamFusionEstimator, params or {})
     msgs = []
     for k in range(1, 21):
         t, x = float(k), float(k)
@@ -125,20 +126,68 @@ def _run(poses_at):
 def test_estimator_rejects_an_input_that_contradicts_the_others():
     poses, session, rec = _run(lambda t, x: [
         ("a.pose", _pose(t, x + 0.1, 0.0, 0.5)), ("b.pose", _pose(t, x - 0.1, 0.1, 0.5)),
-        ("c.pose", _pose(t, x + 8.0, 5.0, 0.5))])
-    assert len(poses) == 20
+        ("c.pose", _pose(t, x + 8.0, 5.0, 0.5))], {"quality": {"enabled": False}})
+    # before the odometry starts the first step is fused at each input pose (a alone,
+    # a + b, all three); then one pose per step from all three
+    assert [p.t for p in poses] == [1.0, 1.0, 1.0] + [float(k) for k in range(2, 21)]
     err = [math.hypot(p.position[0] - p.t, p.position[1]) for p in poses]
     assert max(err) < 0.3
     # trusted once two inputs vouch for it; the first pose (a alone) is not
     assert all(p.trusted for p in poses[1:]) and not poses[0].trusted
-    # the first pose is fused from a alone (no odometry yet: fused at each input pose),
-    # each later one from all three
-    assert session.stats.counts["under_test"]["rejected:c.pose"] == 19
+    assert session.stats.counts["under_test"]["rejected:c.pose"] == 20
     assert "rejected:a.pose" not in session.stats.counts["under_test"]
     codes = {d.code for d in rec.on("diagnostics")}
     assert "input_rejected" in codes
     for p in poses:
         assert p.protection_radius == pytest.approx(gaussian_protection_radius(p.cov[:2, :2]))
+
+
+def test_a_contradicting_input_is_widened_online_and_never_pulls():
+    # the same inputs with the learned factors: c is left out until its factor has
+    # grown to hold its 9.4 m offset, then it agrees and is fused with a weight too
+    # small to move the pose
+    poses, session, _ = _run(lambda t, x: [
+        ("a.pose", _pose(t, x + 0.1, 0.0, 0.5)), ("b.pose", _pose(t, x - 0.1, 0.1, 0.5)),
+        ("c.pose", _pose(t, x + 8.0, 5.0, 0.5))])
+    err = [math.hypot(p.position[0] - p.t, p.position[1]) for p in poses]
+    assert max(err) < 0.3
+    counts = session.stats.counts["under_test"]
+    assert 1 <= counts["rejected:c.pose"] < 19
+    quality = session.component.state["ff1"].quality
+    assert quality.factor("c.pose") > 50 and quality.factor("a.pose") == 1.0
+
+
+def test_learned_factor_is_the_weighted_mean_disagreement_times_the_margin():
+    # a constant disagreement q = d^T (P + R)^-1 d / 2 each second: after N seconds the
+    # exponentially weighted mean (time constant tau, from 0) is q (1 - exp(-N / tau))
+    tau, margin = 30.0, 8.0
+    quality = InputQuality(tau, 1e4, margin)
+    d, p, r = np.array([3.0, 4.0]), np.eye(2) * 0.5, np.eye(2) * 0.75
+    for k in range(41):
+        quality.update("x.pose", float(k), d, p, np.zeros(2), r)
+    q = 25.0 / (2 * 1.25)
+    assert quality.factor("x.pose") == pytest.approx(margin * q * (1 - math.exp(-40 / tau)))
+    # an input that agrees is never made tighter than its own covariance
+    for k in range(41):
+        quality.update("y.pose", float(k), np.zeros(2), p, np.zeros(2), r)
+    assert quality.factor("y.pose") == 1.0
+    assert quality.factor("unknown.pose") == 1.0
+
+
+def test_a_step_waits_for_the_inputs_that_answer_after_the_odometry():
+    # the methods publish their pose of a stride after the odometry of it (they run on
+    # it): the step is fused with those poses, once, not with the poses of the stride before
+    msgs = []
+    for k in range(1, 11):
+        t = float(k)
+        msgs.append(("dr.odometry", _odometry(t, t)))
+        msgs.append(("a.pose", _pose(t, t, 0.3 * k, 0.5)))
+    rec = Session(TeamFusionEstimator, {}).run(msgs)
+    poses = rec.on("pose")
+    # (the first step has no input yet: nothing to publish)
+    assert [p.t for p in poses] == [float(k) for k in range(2, 11)]
+    for k, p in enumerate(poses, start=2):
+        assert p.position[1] == pytest.approx(0.3 * k, abs=1e-9)
 
 
 def test_estimator_without_a_majority_is_not_trusted_and_bounds_both():
@@ -161,7 +210,7 @@ def test_estimator_carries_an_old_input_along_the_odometry():
         if t <= 5:
             out.append(("b.pose", _pose(t, x, 0.0, 0.2)))
         return out
-    poses_out, _, _ = _run(poses)
+    poses_out, _, _ = _run(poses, {"quality": {"enabled": False}})
     at = {p.t: p for p in poses_out}
     assert at[12.0].position[0] == pytest.approx(12.0, abs=0.1)
     assert at[12.0].cov[0, 0] < 0.5
@@ -175,3 +224,23 @@ def test_floor_by_vote_of_the_fused_inputs():
         ("a.pose", _pose(t, x, 0.0, 0.5, floor=1)), ("b.pose", _pose(t, x, 0.0, 0.5, floor=1)),
         ("c.pose", _pose(t, x, 0.0, 1.5, floor=None))])
     assert {p.floor for p in poses} == {1}
+
+
+def test_a_step_is_published_again_when_an_input_that_was_not_waited_for_answers():
+    # a skips step 3; with wait_for 0 step 4 is not held for it (it did not answer step
+    # 3): step 4 is fused with a's pose of step 2 carried, then again with a's pose of 4
+    msgs = []
+    for k in range(1, 7):
+        t = float(k)
+        msgs.append(("dr.odometry", _odometry(t, t)))
+        if k != 3:
+            msgs.append(("a.pose", _pose(t, t, 0.3 * k, 0.5)))
+    rec = Session(TeamFusionEstimator, {"propagation": {"wait_for": 0.0}}).run(msgs)
+    poses = rec.on("pose")
+    assert [p.t for p in poses] == [2.0, 3.0, 4.0, 4.0, 5.0, 6.0]
+    # step 3 (at the next step's odometry) and the first step 4: a's pose of 2 carried
+    assert poses[1].position[1] == pytest.approx(0.6) and poses[2].position[1] == pytest.approx(0.6)
+    assert poses[3].position[1] == pytest.approx(1.2)
+    # with the default wait a skipped step still holds the next one for a: once each
+    rec = Session(TeamFusionEstimator, {}).run(msgs)
+    assert [p.t for p in rec.on("pose")] == [2.0, 3.0, 4.0, 5.0, 6.0]

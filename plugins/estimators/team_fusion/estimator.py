@@ -4,26 +4,33 @@
 alone, the particle filter, ORCA map matching, the RFID EKF, breadcrumb GEN: whatever
 the crew's kit lets run; each is optional), the building-frame odometry of the
 firefighter (``dead_reckoning``'s ``odometry``) and, where fitted, the barometer height;
-and publishes one :class:`PoseEstimate` per odometry step:
+and publishes one :class:`PoseEstimate` per odometry step (a step twice when corrected, 0.):
 
+0. **Wait.** A step is fused once every input that answered a recent step has sent its
+   pose of this one (the methods run on the same odometry and answer after it), at the
+   latest when the next step arrives; an input's pose of a step already published (it
+   skipped the one before) makes that step published again, corrected.
 1. **Carry.** Each input's last pose is carried to the step's time along the odometry
    (the odometry's steps turned into that input's heading where the input knows its
    heading), its covariance grown with the distance carried and the age; inputs older
    than ``propagation.max_age`` are left out.
-2. **Gate.** Two inputs contradict each other when their difference lies beyond the
+2. **Learn** each input's covariance factor online from its disagreement with the
+   other inputs (:mod:`.quality`), applied before the gate: an input that contradicts
+   the others widens until it agrees, the tightest one is not out-voted.
+3. **Gate.** Two inputs contradict each other when their difference lies beyond the
    chi-square gate with both covariances, or they name different floors. The largest
    set of mutually consistent inputs is fused; an input outside it is left out,
    counted (``rejected_inputs``, ``rejected:<stream>``) and reported with the place.
-3. **Fuse.** Covariance intersection of the set (:mod:`.fusion`): the inputs share the
+4. **Fuse.** Covariance intersection of the set (:mod:`.fusion`): the inputs share the
    foot-INS odometry, so their errors are correlated by an unknown amount. Height and
    heading take the same weights.
-4. **Rival sets.** When the inputs split into rival sets of the same size that
+5. **Rival sets.** When the inputs split into rival sets of the same size that
    contradict each other (two inputs that disagree, nothing to arbitrate), the pose is
    their mixture, its protection radius holds every set's 99 % disc, and it is not
    trusted (``inputs_disagree`` diagnostic with the place).
-5. **Floor** by vote of the fused inputs' floors (their stairs evidence), one each, and
+6. **Floor** by vote of the fused inputs' floors (their stairs evidence), one each, and
    the barometer's floor; a tie keeps the floor before.
-6. **Integrity.** ``protection_radius`` from the fused covariance
+7. **Integrity.** ``protection_radius`` from the fused covariance
    (:func:`~firenav_framework.integrity.gaussian_protection_radius`) or the mixture;
    ``trusted`` from :func:`~firenav_framework.integrity.trusted`, and only while at
    least ``support.inputs`` fused inputs each bound the pose within ``support.radius``
@@ -47,8 +54,10 @@ from firenav_framework.integrity import gaussian_protection_radius, trusted
 from firenav_framework.messages import PressureHeight
 
 from ..odometry_input import accept_odometry
-from .fusion import Hypothesis, chi2_2dof_quantile, consistent_hypotheses, mixture
+from .fusion import (Hypothesis, chi2_2dof_quantile, consistent_hypotheses, leave_one_out,
+                     mixture)
 from .params import InputSettings, TeamFusionParams
+from .quality import InputQuality
 from .trail import OdometryTrail
 
 __all__ = ["TeamFusionEstimator"]
@@ -73,12 +82,15 @@ class _Carried:
 @dataclass
 class _Agent:
     trail: OdometryTrail
+    quality: InputQuality
     odometry_stream: str = ""
     last_odometry_t: float | None = None
     inputs: dict[str, PoseEstimate] = field(default_factory=dict)
     baro: PressureHeight | None = None
     floor: int | None = None
     published_t: float = -math.inf
+    pending: tuple[float, str] | None = None     # the step (time, device) not yet fused
+    waiting: set[str] = field(default_factory=set)   # inputs whose pose of it is due
 
 
 class TeamFusionEstimator(Estimator):
@@ -92,7 +104,9 @@ class TeamFusionEstimator(Estimator):
     def __init__(self, params: TeamFusionParams, ctx):
         super().__init__(params, ctx)
         keep = params.propagation.max_age + 5.0
-        self.state: PerAgent[_Agent] = PerAgent(lambda agent: _Agent(OdometryTrail(keep)))
+        q = params.quality
+        self.state: PerAgent[_Agent] = PerAgent(lambda agent: _Agent(
+            OdometryTrail(keep), InputQuality(q.time_constant, q.max_factor, q.margin)))
         self._threshold = chi2_2dof_quantile(params.gate.probability)
         self._default_input = InputSettings()
 
@@ -123,10 +137,31 @@ class TeamFusionEstimator(Estimator):
             return
         if not accept_odometry(self.ctx, msg, st.last_odometry_t):
             return
+        previous = st.last_odometry_t
+        self._fuse_pending(msg.agent, st)
         st.odometry_stream = stream
         st.last_odometry_t = msg.t
         st.trail.add(msg.t, np.asarray(msg.position, float), float(msg.heading))
-        self._fuse(msg.agent, st, msg.t, msg.device)
+        # the step is fused once every input that kept up with the step before has sent
+        # its pose of this one (the methods answer the same stride after the odometry),
+        # at the latest at the next step
+        st.pending = (msg.t, msg.device)
+        recent = self.params.propagation.wait_for
+        st.waiting = {s for s, p in st.inputs.items()
+                      if previous is not None and previous - recent - 1e-9 <= p.t < msg.t - 1e-9}
+        if not st.waiting:
+            self._fuse_pending(msg.agent, st)
+
+    def _fuse_pending(self, agent: str, st: _Agent) -> None:
+        if st.pending is not None:
+            t, device = st.pending
+            st.pending = None
+            st.waiting.clear()
+            self._fuse(agent, st, t, device)
+
+    def finish(self) -> None:
+        for agent, st in self.state.items():
+            self._fuse_pending(agent, st)
 
     def _pose(self, stream: str, msg: PoseEstimate) -> None:
         problem = _pose_problem(msg)
@@ -141,6 +176,14 @@ class TeamFusionEstimator(Estimator):
             self.ctx.count("stale_poses")
             return
         st.inputs[stream] = msg
+        if st.pending is not None and stream in st.waiting and msg.t >= st.pending[0] - 1e-9:
+            st.waiting.discard(stream)
+            if not st.waiting:
+                self._fuse_pending(msg.agent, st)
+        elif st.pending is None and abs(msg.t - st.published_t) < 1e-6:
+            # an input's pose of the step already published (it skipped the step before):
+            # the step again, corrected
+            self._fuse(msg.agent, st, msg.t, msg.device, again=True)
         if not len(st.trail):
             # no odometry to carry the inputs (yet): fuse at each input pose instead
             self._fuse(msg.agent, st, msg.t, msg.device)
@@ -173,8 +216,8 @@ class TeamFusionEstimator(Estimator):
                         max(float(cov[3, 3]), _MIN_VAR),
                         pose.floor if settings.floor else None)
 
-    def _fuse(self, agent: str, st: _Agent, t: float, device: str) -> None:
-        if t <= st.published_t:
+    def _fuse(self, agent: str, st: _Agent, t: float, device: str, again: bool = False) -> None:
+        if t < st.published_t or (t == st.published_t and not again):
             return
         carried = [c for c in (self._carry(st, s, p, t) for s, p in sorted(st.inputs.items()))
                    if c is not None]
@@ -182,9 +225,15 @@ class TeamFusionEstimator(Estimator):
             self.ctx.count("steps_without_inputs")
             return
         means = np.array([c.mean for c in carried])
-        covs = np.array([c.cov for c in carried])
-        for k in range(len(covs)):
-            covs[k] = 0.5 * (covs[k] + covs[k].T) + np.eye(2) * _MIN_VAR
+        raw = np.array([c.cov for c in carried])
+        for k in range(len(raw)):
+            raw[k] = 0.5 * (raw[k] + raw[k].T) + np.eye(2) * _MIN_VAR
+        learn = self.params.quality.enabled
+        covs = raw.copy()
+        if learn:
+            for k, c in enumerate(carried):
+                covs[k] *= st.quality.factor(c.stream)
+                c.cov = covs[k]
         hyps = consistent_hypotheses(means, covs, [c.floor for c in carried], self._threshold)
         containment = self.params.integrity.containment
         if len(hyps) == 1:
@@ -213,10 +262,12 @@ class TeamFusionEstimator(Estimator):
                                 f"other inputs ({off:.1f} m from the fused ({mean[0]:.1f}, "
                                 f"{mean[1]:.1f}), floor {c.floor}) and is left out",
                                 agent=agent, key=f"{agent}/{c.stream}")
+        if learn:
+            self._learn(st, carried, hyps, means, raw, covs, mean, cov, t)
         weights = _member_weights(hyps, len(carried))
         z, var_z = _scalar_ci([c.z for c in carried], [c.var_z for c in carried], weights)
         heading, var_h = _heading_ci(carried, weights)
-        floor = self._vote(st, carried, weights, z, t)
+        floor = self._vote(st, carried, used, z, t)
         st.floor, st.published_t = floor, t
         cov4 = np.zeros((4, 4))
         cov4[:2, :2] = cov
@@ -227,15 +278,33 @@ class TeamFusionEstimator(Estimator):
             protection_radius=radius,
             trusted=trusted(radius, self.params.integrity, contradicted or unsupported)))
 
-    def _vote(self, st: _Agent, carried: list[_Carried], weights: np.ndarray, z: float,
+    def _learn(self, st: _Agent, carried: list[_Carried], hyps: list[Hypothesis],
+               means: np.ndarray, raw: np.ndarray, covs: np.ndarray, mean: np.ndarray,
+               cov: np.ndarray, t: float) -> None:
+        """Each input's disagreement with the team without it: for a fused input, the
+        fusion of the others in its set (skipped when it is fused alone or they carry no
+        weight); for one left out, the fused pose."""
+        for k, c in enumerate(carried):
+            home = next((h for h in hyps if k in h.members), None)
+            if home is None:
+                st.quality.update(c.stream, t, means[k], raw[k], mean, cov)
+                continue
+            if len(home.members) == 1:
+                continue
+            others = leave_one_out(home, means, covs, k)
+            if others is not None:
+                st.quality.update(c.stream, t, means[k], raw[k], *others)
+
+    def _vote(self, st: _Agent, carried: list[_Carried], voters: set[int], z: float,
               t: float) -> int | None:
-        """One vote per fused input that names a floor, the barometer's floor with its
-        weight; a tie keeps the floor before. Votes are counted, not weighted by the
-        fusion weights: inputs that share the INS height agree with each other whatever
-        their covariances say."""
+        """One vote per input of the consistent set(s) (``voters``: indices into
+        ``carried``) that names a floor, the barometer's floor with its weight; a tie
+        keeps the floor before. Votes are counted, not weighted by the fusion weights:
+        inputs that share the INS height agree with each other whatever their
+        covariances say."""
         votes: dict[int, float] = {}
-        for c, w in zip(carried, weights):
-            if w > 0 and c.floor is not None:
+        for i, c in enumerate(carried):
+            if i in voters and c.floor is not None:
                 votes[c.floor] = votes.get(c.floor, 0.0) + 1.0
         baro = st.baro
         if baro is not None and t - baro.t <= self.params.floor.barometer_max_age \

@@ -22,7 +22,7 @@ import numpy as np
 from firenav_framework.integrity import gaussian_protection_radius
 
 __all__ = ["covariance_intersection", "gate_matrix", "chi2_2dof_quantile",
-           "Hypothesis", "consistent_hypotheses", "mixture"]
+           "Hypothesis", "consistent_hypotheses", "mixture", "leave_one_out"]
 
 
 def chi2_2dof_quantile(p: float) -> float:
@@ -183,3 +183,23 @@ def mixture(hyps: list[Hypothesis], containment: float) -> tuple[np.ndarray, np.
         cov += (h.cov + np.outer(d, d)) / len(hyps)
         radius = max(radius, float(np.hypot(*d)) + gaussian_protection_radius(h.cov, containment))
     return mean, cov, radius
+
+
+def leave_one_out(h: Hypothesis, means: np.ndarray, covs: np.ndarray, k: int
+                  ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The fusion of hypothesis ``h`` without its member ``k`` (an index into ``means``
+    (n, 2) [m] and ``covs`` (n, 2, 2) [m^2]): ``(mean, cov)`` with the remaining CI
+    weights renormalised, or None when the others carry (almost) no weight."""
+    pos = h.members.index(k)
+    rest = 1.0 - float(h.weights[pos])
+    if rest < 1e-6:
+        return None
+    info = np.zeros((2, 2))
+    y = np.zeros(2)
+    for j, w in zip(h.members, h.weights):
+        if j != k and w > 0:
+            inv = np.linalg.inv(covs[j])
+            info += w * inv
+            y += w * inv @ means[j]
+    cov = np.linalg.inv(info / rest)
+    return cov @ (y / rest), cov

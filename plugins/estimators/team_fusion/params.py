@@ -18,6 +18,10 @@ class Propagation(Params):
     max_speed: float = param(3.0, unit="m/s", gt=0, description="without odometry to carry "
                              "an input, its age is paid for as this speed times the age "
                              "(1 sigma)")
+    wait_for: float = param(1.5, unit="s", ge=0, description="a step is fused once every "
+                            "input whose last pose is at most this much older than the step "
+                            "before has sent its pose of this step (or at the next step); "
+                            "0: the inputs that answered the step before")
     heading_sigma_max: Angle = param(0.35, unit="rad", gt=0, description="an input's "
                                      "heading is used to turn the odometry's steps into its "
                                      "frame only while its 1-sigma heading is below this")
@@ -60,6 +64,19 @@ class Support(Params):
                           "radius (after `inflate`) up to which it vouches for the pose")
 
 
+class Quality(Params):
+    """Each input's covariance factor learned online from its consistency with the others."""
+
+    enabled: bool = param(True, description="learn a covariance factor per firefighter and "
+                          "input from the input's disagreement with the other inputs")
+    time_constant: float = param(30.0, unit="s", gt=0, description="time constant of the "
+                                 "exponentially weighted mean of the disagreement")
+    margin: float = param(8.0, ge=1.0, description="the factor is this times the mean "
+                          "disagreement (room for the disagreement's spread)")
+    max_factor: float = param(1e4, ge=1.0, description="largest factor learned (and the "
+                              "largest disagreement counted from one step)")
+
+
 class TeamFusionParams(Params):
     inputs: dict[str, InputSettings] = param({}, description="per input stream (e.g. "
                                              "'gen.pose'): covariance factor and whether its "
@@ -70,5 +87,6 @@ class TeamFusionParams(Params):
     gate: Gate = param(Gate(), description="consistency gate between inputs")
     floor: FloorVote = param(FloorVote(), description="the floor vote")
     support: Support = param(Support(), description="redundancy needed for trust")
+    quality: Quality = param(Quality(), description="covariance factors learned online")
     integrity: IntegrityParams = param(IntegrityParams(), description="when a fused pose "
                                        "is trusted")
