@@ -25,6 +25,7 @@ Goals (issue 6): >= 100x real time at 500 particles for one firefighter; >= 1x (
 time) for 10 firefighters at 5 000 particles each. Run:
 
     .venv/bin/python benchmarks/bench_pf_speed.py [--plan flat_125] [--minutes 5]
+    .venv/bin/python benchmarks/bench_pf_speed.py --jump-rule   # trust.jump off / on only
 """
 from __future__ import annotations
 
@@ -224,13 +225,13 @@ def walks(building, n_ff: int, minutes: float) -> list:
     return out
 
 
-def run(building, odometry: list, particles: int, patterns: str | None
+def run(building, odometry: list, particles: int, patterns: str | None, trust: dict | None = None
         ) -> tuple[float, float, float, dict]:
     """(simulated s, wall s, CPU s, counts) of our filter over all agents' odometry, with
     wall crossing and the search patterns ``patterns`` (``"ours"``, ``"reference"``, or
-    None: walls only)."""
-    pf, rec, stats = make_component(ParticleFilterEstimator, {"particles": particles, "start": {"mode": "unknown"}},
-                                    building=building)
+    None: walls only); ``trust``: the filter's ``trust`` parameters."""
+    params = {"particles": particles, "start": {"mode": "unknown"}, "trust": trust or {}}
+    pf, rec, stats = make_component(ParticleFilterEstimator, params, building=building)
     classes = [(WallCrossingConstraint, "walls")]
     if patterns is not None:
         classes.append((ReferenceIcp if patterns == "reference" else SearchPatternIcpConstraint,
@@ -251,18 +252,41 @@ def run(building, odometry: list, particles: int, patterns: str | None
     return sim, wall, cpu, counts
 
 
+def jump_rule_costs(building, minutes: float) -> None:
+    """Wall / CPU time of the same search with the jump rule off and on (same run)."""
+    one = walks(building, 1, minutes)
+    times: dict[str, list] = {"off": [], "on": []}
+    for _ in range(3):
+        for label, trust in (("off", {}), ("on", {"jump": 1.0, "jump_evidence": 20.0})):
+            sim, wall, cpu, _ = run(building, one, 500, "ours", trust)
+            times[label].append((wall, cpu))
+    print(f"walls + patterns, 500 particles, one firefighter, {sim:.0f} s simulated; best of 3")
+    for label, t in times.items():
+        wall, cpu = min(w for w, _ in t), min(c for _, c in t)
+        print(f"jump rule {label:<3}: wall {wall:.3f} s ({sim / wall:.0f}x real time), "
+              f"CPU {cpu:.3f} s")
+    ratio = min(c for _, c in times["on"]) / min(c for _, c in times["off"])
+    print(f"CPU on / off: {ratio:.2f} (goal: within 2x)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--plan", default="flat_125")
     ap.add_argument("--minutes", type=float, default=5.0, help="simulated search per firefighter")
     ap.add_argument("--reference-minutes", type=float, default=2.0,
                     help="simulated minutes for the (slow) search-pattern reference")
+    ap.add_argument("--jump-rule", action="store_true",
+                    help="only the per-step cost with the look-alike jump rule (trust.jump) "
+                         "off and on, 500 particles, one firefighter, alternated 3 times")
     args = ap.parse_args()
     from threadpoolctl import threadpool_limits
     threadpool_limits(1)
     building = load_building(bundled_plan(args.plan))
     # warm up the compiled kernels so that compilation is not timed
     run(building, walks(building, 1, 0.7), 100, "ours")
+    if args.jump_rule:
+        jump_rule_costs(building, args.minutes)
+        return
     rows = []
     try:
         import stonesoup  # noqa: F401

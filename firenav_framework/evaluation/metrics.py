@@ -20,7 +20,27 @@ Definitions (all distances horizontal unless said otherwise, metres, seconds):
   or landing, more than :data:`STAIR_BAND_M` from every floor level, the firefighter is
   between two floors and either of them counts as right (needs the floor levels);
 * ``converge_s``: time from the first estimate until the error drops below
-  ``bound_m`` for good (None if it never stays below).
+  ``bound_m`` for good (None if it never stays below). It reads the truth: a figure
+  for the evaluator, not a rule a filter could apply.
+
+Convergence as the search-pattern paper defines it (Sec. V-E, Fig. 9 a: "the search has
+been divided into four periods based on whether the estimated variance exceeds or falls
+below 3 m^2", the first period being "before the filter has converged"; Sec. V-C, VI:
+the "steady-state RMSE" once the filter "stabilizes"). The rule reads only the
+estimate's own published covariance, never the truth:
+
+* ``variance_converge_s``: seconds from the first estimate to the first estimate from
+  which the estimate's own horizontal variance ``cov[0,0] + cov[1,1]`` stays at or
+  below :data:`CONVERGED_VARIANCE_M2` for at least :data:`CONVERGED_HOLD_S` (the hold
+  keeps a single collapsed resampling from counting); None if that never happens. An
+  estimator that starts from a known, tight pose converges at 0;
+* ``rmse_after_convergence_m``: the paper's metric, the RMSE of the horizontal errors
+  from that moment to the end of the track (later divergences, e.g. at a map error,
+  count: the paper's steady state includes its periods 3 and 4); None if the track
+  never converges;
+* ``converged_fraction``: 1 if the track converges, 0 if not; pooled, the share of
+  tracks that converge (of runs, for one firefighter per run). None without a
+  covariance.
 
 Integrity (whether the estimate's own uncertainty holds its promises; dense truth only):
 
@@ -50,6 +70,10 @@ STAIR_BAND_M = 0.5
 ALERT_LIMIT_M = 3.0
 #: chi-square (2 degrees of freedom) 95 % quantile: the 95 % ellipse's squared radius.
 CHI2_2_95 = 5.991464547107979
+#: The search-pattern paper's convergence threshold on var_x + var_y [m^2] (Sec. V-E).
+CONVERGED_VARIANCE_M2 = 3.0
+#: How long [s] the variance must stay below the threshold for the track to have converged.
+CONVERGED_HOLD_S = 10.0
 
 
 def floor_right(floor_est: np.ndarray, floor_true: np.ndarray, z_true: np.ndarray,
@@ -130,6 +154,30 @@ def convergence_time(t: np.ndarray, errors: np.ndarray, bound_m: float) -> float
     return float(t[last + 1] - t[0])
 
 
+def variance_convergence_time(t: np.ndarray, var_xy: np.ndarray,
+                              limit_m2: float = CONVERGED_VARIANCE_M2,
+                              hold_s: float = CONVERGED_HOLD_S) -> float | None:
+    """Seconds from ``t[0]`` to the first time from which ``var_xy`` [m^2] stays at or
+    below ``limit_m2`` for at least ``hold_s`` seconds (None: never; NaN counts as above)."""
+    if len(t) == 0 or len(var_xy) != len(t):
+        return None
+    below = np.asarray(var_xy, float) <= limit_m2
+    if not below.any():
+        return None
+    edges = np.diff(np.concatenate([[0], below.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    ok = np.flatnonzero(t[ends] - t[starts] >= hold_s)
+    return float(t[starts[ok[0]]] - t[0]) if ok.size else None
+
+
+def after_convergence(err: "TrackErrors") -> np.ndarray | None:
+    """The horizontal errors [m] from the track's variance convergence on (None: never)."""
+    tc = variance_convergence_time(err.t, err.var_xy)
+    if tc is None:
+        return None
+    return err.horizontal[err.t >= err.t[0] + tc]
+
+
 @dataclass
 class TrackErrors:
     """Error series of one estimated track against its truth (for metrics and plots)."""
@@ -143,6 +191,7 @@ class TrackErrors:
     mahalanobis2: np.ndarray = field(default_factory=lambda: np.empty(0))  # (N,) NaN: no cov
     protection: np.ndarray = field(default_factory=lambda: np.empty(0))    # (N,) [m], inf: none
     trusted: np.ndarray = field(default_factory=lambda: np.empty(0, bool))  # (N,)
+    var_xy: np.ndarray = field(default_factory=lambda: np.empty(0))  # (N,) cov xx + yy [m^2]
 
 
 def track_errors(track: Track, truth: Track, floor_levels: np.ndarray | None = None
@@ -172,7 +221,8 @@ def track_errors(track: Track, truth: Track, floor_levels: np.ndarray | None = N
     return TrackErrors(track.agent, t, e, vertical, floor_ok, dist,
                        mahalanobis2=horizontal_mahalanobis2(dxy, track.cov[inside]),
                        protection=track.protection_radius[inside],
-                       trusted=track.trusted[inside])
+                       trusted=track.trusted[inside],
+                       var_xy=track.cov[inside, 0, 0] + track.cov[inside, 1, 1])
 
 
 def horizontal_mahalanobis2(dxy: np.ndarray, cov: np.ndarray) -> np.ndarray:
@@ -212,6 +262,9 @@ class TrackMetrics:
     protection_containment: float | None = None
     trusted_fraction: float | None = None
     trusted_off_fraction: float | None = None
+    variance_converge_s: float | None = None
+    rmse_after_convergence_m: float | None = None
+    converged_fraction: float | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -219,9 +272,23 @@ class TrackMetrics:
 
 INTEGRITY_KEYS = ("ellipse95_containment", "nees_xy", "protection_containment",
                   "trusted_fraction", "trusted_off_fraction")
+CONVERGENCE_KEYS = ("variance_converge_s", "rmse_after_convergence_m", "converged_fraction")
 KEYS = ("rmse_m", "mean_m", "median_m", "p90_m", "p95_m", "max_m", "mean_pct_distance",
         "max_pct_distance", "distance_m", "vertical_rmse_m", "floor_accuracy", "converge_s",
-        *INTEGRITY_KEYS)
+        *INTEGRITY_KEYS, *CONVERGENCE_KEYS)
+#: Times to converge: a run that never converges counts as infinitely late in a spread.
+TIME_KEYS = ("converge_s", "variance_converge_s")
+
+
+def convergence_figures(err: TrackErrors) -> dict[str, float | None]:
+    """The paper's convergence figures of the module docstring for one track."""
+    if len(err.t) == 0 or len(err.var_xy) != len(err.t):
+        return dict.fromkeys(CONVERGENCE_KEYS)
+    after = after_convergence(err)
+    return {"variance_converge_s": variance_convergence_time(err.t, err.var_xy),
+            "rmse_after_convergence_m": (_finite_or_none(float(np.sqrt(np.mean(after ** 2))))
+                                         if after is not None and after.size else None),
+            "converged_fraction": 0.0 if after is None else 1.0}
 
 
 def integrity_figures(err: TrackErrors) -> dict[str, float | None]:
@@ -258,7 +325,7 @@ def metrics_of(err: TrackErrors, bound_m: float = CONVERGE_BOUND_M) -> TrackMetr
         vertical_rmse_m=_finite_or_none(float(np.sqrt(np.mean(vert ** 2)))) if vert.size else None,
         floor_accuracy=float(fl.mean()) if fl.size else None,
         converge_s=convergence_time(err.t, err.horizontal, bound_m),
-        **integrity_figures(err))
+        **integrity_figures(err), **convergence_figures(err))
 
 
 def pooled_metrics(errs: list[TrackErrors], bound_m: float = CONVERGE_BOUND_M) -> TrackMetrics:
@@ -268,7 +335,9 @@ def pooled_metrics(errs: list[TrackErrors], bound_m: float = CONVERGE_BOUND_M) -
     track; the percentages are means over tracks of each track's own percentage (as the
     breadcrumb paper averages its eight traces); ``converge_s`` is the median over
     tracks, a track that never converges counting as infinitely late (None when at
-    least half never converge).
+    least half never converge); the same for ``variance_converge_s``;
+    ``rmse_after_convergence_m`` pools every converged track's errors after its own
+    convergence; ``converged_fraction`` is the share of tracks that converge.
     """
     if not errs:
         return TrackMetrics(0, *([None] * len(KEYS)))
@@ -291,4 +360,22 @@ def pooled_metrics(errs: list[TrackErrors], bound_m: float = CONVERGE_BOUND_M) -
     pooled.max_pct_distance = mean_of("max_pct_distance")
     pooled.distance_m = mean_of("distance_m")
     pooled.converge_s = med if math.isfinite(med) else None
+    _pool_convergence(pooled, errs, per)
     return pooled
+
+
+def _pool_convergence(pooled: TrackMetrics, errs: list[TrackErrors],
+                      per: list[TrackMetrics]) -> None:
+    """Set the pooled convergence figures of :func:`pooled_metrics` from the tracks'."""
+    with_cov = [(e, m) for e, m in zip(errs, per) if m.converged_fraction is not None]
+    if not with_cov:
+        return
+    times = np.array([math.inf if m.variance_converge_s is None else m.variance_converge_s
+                      for _, m in with_cov])
+    med = float(np.median(times))
+    after = [a for a in (after_convergence(e) for e, _ in with_cov) if a is not None]
+    after_all = np.concatenate(after) if after else np.empty(0)
+    pooled.variance_converge_s = med if math.isfinite(med) else None
+    pooled.rmse_after_convergence_m = (_finite_or_none(float(np.sqrt(np.mean(after_all ** 2))))
+                                       if after_all.size else None)
+    pooled.converged_fraction = float(np.mean([m.converged_fraction for _, m in with_cov]))

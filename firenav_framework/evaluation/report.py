@@ -30,6 +30,9 @@ _LABELS = {
     "ellipse95_containment": "truth in 95 % ellipse", "nees_xy": "NEES (x, y; 2 if consistent)",
     "protection_containment": "error within protection radius",
     "trusted_fraction": "trusted", "trusted_off_fraction": "trusted while > 3 m off",
+    "variance_converge_s": "converged (var_x + var_y < 3 m^2) after [s]",
+    "rmse_after_convergence_m": "RMSE after convergence [m]",
+    "converged_fraction": "tracks that converge",
 }
 
 

@@ -8,7 +8,7 @@ largest ``k`` with ``P(Binomial(n, 1/2) < k) <= 2.5 %``. It needs at least 6 run
 (for 5, even ``[min, max]`` covers the median only 93.75 % of the time) and states no
 shape of the distribution. For 30 runs it is ``[x_(10), x_(21)]``.
 
-A run that never converged has ``converge_s`` = None; here it counts as infinitely
+A run that never converged has ``converge_s`` (``variance_converge_s``) = None; here it counts as infinitely
 late (so the median is "never" when half the runs never converged). Other figures
 that do not apply to a run (no floors, no z) are left out of their spread.
 """
@@ -20,7 +20,7 @@ from typing import Iterable
 
 import numpy as np
 
-from .metrics import CONVERGE_BOUND_M, KEYS, TrackMetrics, pooled_metrics
+from .metrics import CONVERGE_BOUND_M, KEYS, TIME_KEYS, TrackMetrics, pooled_metrics
 
 #: Coverage of the interval of the median.
 LEVEL = 0.95
@@ -74,5 +74,5 @@ def run_figures(errors: list, bound_m: float = CONVERGE_BOUND_M) -> TrackMetrics
 
 def spreads(per_run: list[TrackMetrics]) -> dict[str, Spread]:
     """The spread of every reported figure (:data:`.metrics.KEYS`) over runs."""
-    return {k: spread([getattr(m, k) for m in per_run], none_is_inf=(k == "converge_s"))
+    return {k: spread([getattr(m, k) for m in per_run], none_is_inf=(k in TIME_KEYS))
             for k in KEYS}

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..scaleout import Journal
-from .metrics import KEYS
+from .metrics import KEYS, TIME_KEYS
 from .report import _LABELS, fmt_spread
 from .seeds import describe_seeds
 from .spread import Spread, spread
@@ -60,7 +60,7 @@ def rank(sweep: "Sweep", cells: list["Cell"], journal: Journal) -> list[Ranked]:
         vals = [row[sweep.metric] for row in rows if row is not None]
         ok = sum(1 for row in rows if row is not None)
         out.append(Ranked(entries[label], settings[sid],
-                          spread(vals, none_is_inf=(sweep.metric == "converge_s")),
+                          spread(vals, none_is_inf=(sweep.metric in TIME_KEYS)),
                           ok=ok, failed=len(recs) - ok))
     sign = -1.0 if sweep.goal == "max" else 1.0
 
@@ -129,7 +129,7 @@ def _spread_cells(s: Spread) -> str:
 def _phase_spreads(cells: list["Cell"], journal: Journal) -> tuple[dict[str, Spread], int, int]:
     rows = [pooled_row(journal.records.get(c.key)) for c in cells]
     got = [r for r in rows if r is not None]
-    return ({k: spread([r[k] for r in got], none_is_inf=(k == "converge_s")) for k in KEYS},
+    return ({k: spread([r[k] for r in got], none_is_inf=(k in TIME_KEYS)) for k in KEYS},
             len(got), len(rows) - len(got))
 
 

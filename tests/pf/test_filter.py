@@ -280,3 +280,41 @@ def test_yaw_rate_state_follows_an_uncalibrated_gyro(flat, search_walk):
     # frame rotation = building heading - INS heading: it turns at -15 deg/min
     assert -0.4 < mean_rate < -0.08
     assert rmse[0.3] < rmse[0.0] and rmse[0.3] < 1.0
+
+
+class Teleport(ParticleConstraint):
+    """Moves the whole cloud, tight, 6 m east at t1: a switch to a look-alike room."""
+
+    name = "teleport"
+
+    def replacements(self, step):
+        if step.t >= 20.0 and not hasattr(self, "done"):
+            self.done = True
+            n = len(step.particles)
+            xy = step.particles.xy + np.array([6.0, 0.0])
+            return Particles.create(xy, step.particles.yaw, np.zeros(n, int))
+        return None
+
+
+@pytest.mark.parametrize("jump", [None, 2.0])
+def test_a_jump_between_hypotheses_is_reported_and_not_trusted_until_evidence(flat, jump):
+    params = {"start": pose_start(5.0, 5.0), "injection": {"weight": "uniform"},
+              "motion": {"position_noise": 0.01},
+              "trust": {"jump": jump, "jump_evidence": 1.0}}
+    pf, rec, stats = make_component(ParticleFilterEstimator, params, building=flat)
+    pf.constraints.append(make_component(Teleport, {}, building=flat, cid="teleport")[0])
+    for msg in straight_walk(80):
+        pf.handle("odo", msg)
+    poses = {p.t: p for p in rec.on("pose")}
+    assert poses[21.0].position[0] - poses[19.0].position[0] == pytest.approx(6.1, abs=0.3)
+    jumps = [(d.t, d.level) for d in rec.on("diagnostics") if d.code == "hypothesis_jump"]
+    if jump is None:                   # without the rule: trusted straight after the jump
+        assert jumps == [] and poses[19.0].trusted and poses[21.0].trusted
+        return
+    assert jumps == [(20.0, "warning")]
+    assert "(6.0, 5.0) to (12.0, 5.0)" in [d.text for d in rec.on("diagnostics")
+                      if d.code == "hypothesis_jump"][0]
+    assert poses[19.0].trusted
+    # 0.05 m per update: untrusted until 1 m has been walked since the jump
+    assert not any(poses[t].trusted for t in np.arange(20.0, 38.0))
+    assert all(poses[t].trusted for t in np.arange(41.0, 80.0))

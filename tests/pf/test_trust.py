@@ -9,7 +9,7 @@ import pytest
 
 from firenav_framework.capabilities import Particles
 from firenav_plugins.estimators.particle_filter.trust import (
-    ContradictionMonitor, cloud_protection_radius, retained_fraction)
+    ContradictionMonitor, JumpMonitor, cloud_protection_radius, retained_fraction)
 
 K99 = math.sqrt(-2.0 * math.log(0.01))   # 99 % radius of a unit 2-D Gaussian
 
@@ -51,3 +51,20 @@ def test_monitor_fires_once_holds_and_clears():
     assert m.contradicted                 # recovered level, but within hold of t=3
     m.update(14.0, 1.0)
     assert not m.contradicted
+
+
+def test_jump_monitor_sums_shifts_over_the_window_and_waits_for_evidence():
+    m = JumpMonitor(jump_m=2.0, evidence_m=3.0, window_s=5.0)
+    assert not m.awaiting_evidence                          # no jump yet
+    # ordinary corrections of a converged cloud: back and forth, they cancel out
+    assert not any(m.update(float(t), np.array([0.6 * (-1) ** t, 0.0]), 0.5) for t in range(20))
+    # weight passing to a look-alike room 4 m east over four updates: one jump
+    hits = [m.update(20.0 + k, np.array([1.0, 0.0]), 0.5) for k in range(4)]
+    assert hits == [False, False, True, False] and m.awaiting_evidence
+    for k in range(4):                                      # 2.5 m walked: not yet
+        m.update(24.0 + k, np.zeros(2), 0.5)
+    assert m.awaiting_evidence
+    m.update(28.0, np.zeros(2), 0.5)                        # 3.0 m walked since the jump
+    assert not m.awaiting_evidence
+    # shifts further apart than the window do not add up
+    assert not any(m.update(40.0 + 6 * k, np.array([1.5, 0.0]), 0.5) for k in range(5))

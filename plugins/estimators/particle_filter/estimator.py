@@ -26,7 +26,10 @@ mean (a second cluster counts in full); ``trusted`` holds while it is within
 the place, cleared with ``active=False``) comes from the spread monitor of §V-E
 (:mod:`.map_error`: ``cov[0,0] + cov[1,1]`` above ``map_error.variance`` after the filter
 had converged) or from the contradiction monitor (the constraints refuting most of the
-cloud), during which the cloud is widened rather than held.
+cloud), during which the cloud is widened rather than held. With ``trust.jump`` set, a
+jump of the mean between hypotheses that the particles' own motion does not explain
+(:class:`.trust.JumpMonitor`) raises ``hypothesis_jump`` and keeps the pose untrusted until
+``trust.jump_evidence`` metres have been walked.
 """
 from __future__ import annotations
 
@@ -51,7 +54,8 @@ from .params import ParticleFilterParams
 from .particles import ParticleSummary, local_log_weight, normalise_log_weights
 from .resampling import replace_removed, resample_indices
 from .stairs import apply_stairs
-from .trust import ContradictionMonitor, cloud_protection_radius, retained_fraction, roughen
+from .trust import (ContradictionMonitor, JumpMonitor, cloud_protection_radius,
+                    retained_fraction, roughen)
 
 __all__ = ["ParticleFilterEstimator"]
 
@@ -87,6 +91,8 @@ class _AgentState:
     spread_m2: float = math.inf
     #: whether a map_error diagnostic is active (spread or contradiction)
     map_error: bool = False
+    #: look-alike jump monitor (``trust.jump``; None: off)
+    jump: JumpMonitor | None = None
 
 
 class ParticleFilterEstimator(Estimator):
@@ -115,7 +121,9 @@ class ParticleFilterEstimator(Estimator):
         return _AgentState(rng=np.random.default_rng(seed), history=OdometryHistory(2 * keep + 10),
                            monitor=SpreadMonitor(p.map_error.variance, clear),
                            contradiction=ContradictionMonitor(tr.retained_floor, tr.smoothing,
-                                                              tr.hold))
+                                                              tr.hold),
+                           jump=(JumpMonitor(tr.jump, tr.jump_evidence, tr.jump_window)
+                                 if tr.jump is not None else None))
 
     def reset(self, agent: str) -> None:
         self.state.reset(agent)
@@ -208,6 +216,7 @@ class ParticleFilterEstimator(Estimator):
         noise = self.crawl_noise if pend.crawl else self.noise
         propagate(p, pend.delta[:2], noisy_s, noise, rng, drift_s=msg.t - pend.t_start)
         apply_stairs(p, float(pend.delta[2]), self.ctx.building)
+        propagated_mean = p.weights @ p.xy if st.jump is not None else None
         odo = msg if pend.t_start == msg.t_start else Odometry(
             t=msg.t, agent=agent, device=msg.device, t_start=pend.t_start, delta=pend.delta,
             dheading=pend.dheading, cov=msg.cov, position=msg.position, heading=msg.heading,
@@ -225,7 +234,7 @@ class ParticleFilterEstimator(Estimator):
             st.particles = p = p.take(idx)
             p.logw[:] = -math.log(len(p))
             self.ctx.count("resampled")
-        self._publish(agent, st, step)
+        self._publish(agent, st, step, propagated_mean, float(np.hypot(*pend.delta[:2])))
 
     def _update_offset(self, st: _AgentState) -> None:
         """Footnote 4: re-estimate the IMU-yaw to walking-direction offset."""
@@ -302,7 +311,8 @@ class ParticleFilterEstimator(Estimator):
             self.ctx.count("injected_particles", k)
 
     # ------------------------------------------------------------------ output
-    def _publish(self, agent: str, st: _AgentState, step: ParticleStep) -> None:
+    def _publish(self, agent: str, st: _AgentState, step: ParticleStep,
+                 propagated_mean: np.ndarray | None, walked_m: float) -> None:
         p = st.particles
         building = self.ctx.building
         levels = np.array([f.z for f in building.floors])
@@ -310,6 +320,7 @@ class ParticleFilterEstimator(Estimator):
         st.spread_m2 = summary.spread_m2
         st.monitor.update(summary.spread_m2)
         self._map_error(agent, st, step.t, summary)
+        self._jump(agent, st, step.t, summary.xy, propagated_mean, walked_m)
         tr, integ = self.params.trust, self.params.integrity
         cov = summary.cov.copy()
         cov[0, 0] += tr.kernel ** 2
@@ -321,7 +332,22 @@ class ParticleFilterEstimator(Estimator):
             position=np.array([summary.xy[0], summary.xy[1], summary.z]),
             heading=summary.heading, cov=cov, floor=summary.floor,
             protection_radius=radius,
-            trusted=trusted(radius, integ, contradicted=st.map_error)))
+            trusted=trusted(radius, integ, contradicted=st.map_error or (
+                st.jump is not None and st.jump.awaiting_evidence))))
+
+    def _jump(self, agent: str, st: _AgentState, t: float, mean: np.ndarray,
+              propagated_mean: np.ndarray | None, walked_m: float) -> None:
+        """Report a jump between hypotheses (:class:`.trust.JumpMonitor`) with both places."""
+        if st.jump is None or propagated_mean is None:
+            return
+        if st.jump.update(t, mean - propagated_mean, walked_m):
+            self.ctx.count("hypothesis_jumps")
+            self.ctx.diagnose(
+                t, "warning", "hypothesis_jump",
+                f"the estimate jumped from near ({propagated_mean[0]:.1f}, "
+                f"{propagated_mean[1]:.1f}) to ({mean[0]:.1f}, {mean[1]:.1f}) m without moving "
+                f"there: not trusted until {st.jump.evidence_m:g} m more are walked",
+                agent=agent)
 
     def _map_error(self, agent: str, st: _AgentState, t: float, summary: ParticleSummary) -> None:
         """One ``map_error`` episode per disturbance of the spread (§V-E) or contradiction of

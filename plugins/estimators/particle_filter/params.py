@@ -125,6 +125,14 @@ class Trust(Params):
                                   "added to the cloud at every contradicted update")
     widen_heading: Angle = param(3 * DEG, unit="rad", ge=0, description="frame-rotation "
                                  "jitter added at every contradicted update")
+    jump: float | None = param(None, unit="m", gt=0, description="a reweighting shift of the "
+                               "mean (summed over jump_window) longer than this is a jump "
+                               "between hypotheses: reported, and the pose untrusted until "
+                               "jump_evidence metres are walked (None disables)")
+    jump_window: float = param(5.0, unit="s", gt=0, description="window over which "
+                               "reweighting shifts are summed")
+    jump_evidence: float = param(10.0, unit="m", ge=0, description="distance to walk after a "
+                                 "jump before the pose may be trusted again")
 
 
 class ParticleFilterParams(Params):

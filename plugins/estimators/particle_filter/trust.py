@@ -14,11 +14,20 @@
   as a wall, a walled-up door, furniture the walk goes round): the filter reports it
   once per episode with the place and widens (:func:`roughen`) instead of holding on;
   the pose stays untrusted for ``hold_s`` seconds after the last contradiction.
+* :class:`JumpMonitor`: a look-alike jump needs evidence. The *reweighting shift* of an
+  update is how far the reported mean moved for reasons other than the particles' own
+  motion: the mean after the update minus the mean of the propagated particles under
+  their prior weights (weight passing from one hypothesis to another, resampling,
+  injected particles). Summed as a vector over the last ``window_s`` seconds (ordinary
+  corrections of a converged cloud cancel out, a switch between look-alike rooms adds
+  up), a shift longer than ``jump_m`` is a jump: reported once with both places, and the
+  pose stays untrusted until the firefighter has walked ``evidence_m`` metres without
+  another one.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,7 +35,8 @@ from firenav_framework.capabilities.particles import Particles
 from firenav_framework.geometry import wrap_angles
 from firenav_framework.integrity import sample_protection_radius
 
-__all__ = ["cloud_protection_radius", "retained_fraction", "ContradictionMonitor", "roughen"]
+__all__ = ["cloud_protection_radius", "retained_fraction", "ContradictionMonitor", "JumpMonitor",
+           "roughen"]
 
 
 def cloud_protection_radius(p: Particles, centre_xy: np.ndarray, floor: int,
@@ -81,6 +91,39 @@ class ContradictionMonitor:
     def widening(self) -> bool:
         """Whether the cloud should be widened this update (smoothed level below floor)."""
         return self.level < self.floor
+
+
+@dataclass
+class JumpMonitor:
+    """Per firefighter: did the estimate jump between hypotheses (see the module)?"""
+
+    jump_m: float
+    evidence_m: float
+    window_s: float = 5.0
+    #: (time [s], shift x, shift y [m]) of the updates within the window
+    recent: list = field(default_factory=list)
+    #: metres walked since the last jump (inf: none yet)
+    walked_since_m: float = math.inf
+
+    def update(self, t: float, shift_xy: np.ndarray, walked_m: float) -> bool:
+        """Feed one update's reweighting shift [m] and distance walked [m]; True when a
+        jump is detected (the window restarts after it)."""
+        self.walked_since_m += walked_m
+        self.recent.append((t, float(shift_xy[0]), float(shift_xy[1])))
+        while self.recent and self.recent[0][0] < t - self.window_s:
+            self.recent.pop(0)
+        sx = sum(r[1] for r in self.recent)
+        sy = sum(r[2] for r in self.recent)
+        if math.hypot(sx, sy) > self.jump_m:
+            self.recent.clear()
+            self.walked_since_m = 0.0
+            return True
+        return False
+
+    @property
+    def awaiting_evidence(self) -> bool:
+        """The pose must not be trusted: a jump less than ``evidence_m`` walked ago."""
+        return self.walked_since_m < self.evidence_m
 
 
 def roughen(p: Particles, sigma_m: float, sigma_rad: float, rng: np.random.Generator) -> None:
