@@ -26,7 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from firenav_framework import PerAgent, Range, param
-from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
+from firenav_framework.capabilities.odometry_correction import (UNKNOWN_VARIANCE,
+                                                                OdometryCorrection, OdometryStep,
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
@@ -114,6 +115,7 @@ class AnchorRangeConstraint(OdometryCorrection):
         floor = self._building.floors[self._building.floor_of_z(step.prev[2])]
         tag_z = floor.z + p.tag_height
         shift = np.zeros(2)
+        info = np.zeros((2, 2))           # what the used ranges know of the position
         for t_r, anchor, r, sigma in due:
             if step.t - t_r > p.max_age:
                 self.ctx.count("ranges_stale")
@@ -139,9 +141,23 @@ class AnchorRangeConstraint(OdometryCorrection):
             k = me.cov @ h / s
             shift = shift + k * innovation
             me.cov = me.cov - np.outer(k, h @ me.cov)
+            info += np.outer(h, h) / (sigma * sigma)
             self.ctx.count("ranges_used")
         if not shift.any():
             return None
         return StepCorrection(position=np.array([*(step.proposed[:2] + shift), step.proposed[2]]),
-                              update=Rigid2D.translation(shift), event="anchor_range")
+                              update=Rigid2D.translation(shift), event="anchor_range",
+                              cov=_seen(me.cov, info, p.model_sigma ** 2), independent=False)
+
+
+def _seen(cov: np.ndarray, info: np.ndarray, floor: float) -> np.ndarray:
+    """The filter's covariance (2, 2) [m^2] on the axes the ranges observed (those of
+    the information matrix ``info`` (2, 2) [1/m^2]) plus ``floor`` [m^2], the range
+    model error that does not average out from range to range (tag height, body and
+    antenna delays); :data:`UNKNOWN_VARIANCE` across them, where the filter knows only
+    its own step model."""
+    values, axes = np.linalg.eigh(info)
+    var = np.where(values > 1.0 / UNKNOWN_VARIANCE,
+                   np.einsum("ik,ij,jk->k", axes, cov, axes) + floor, UNKNOWN_VARIANCE)
+    return (axes * var) @ axes.T
 

@@ -56,6 +56,12 @@ only a team member is in the way of is deflected, never read as a heading error 
 door. Meant for firefighters moving independently; a team holding on to each other
 (following a step behind) is in constant "collision" and should leave it off.
 
+Every step that no jump moved reports what the walls around the corrected position know
+of it (``free_space_covariance``): along and across the heading the walker is somewhere
+between the first walls either side (a corridor's width, a room's extent);
+``dead_reckoning`` fuses that into its covariance as evidence that repeats from step to
+step (never tighter than the extent says).
+
 ``rotation_from: heading`` stores the rotation of the INS velocity along its heading
 rather than of the step (which sways from stride to stride).
 
@@ -68,7 +74,7 @@ as long as it is not older than ``range_max_age``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -76,7 +82,7 @@ import numpy as np
 from firenav_framework import Angle, PerAgent, Range, param
 from firenav_framework.building import Floor
 from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
-                                                                StepCorrection)
+                                                                StepCorrection, UNKNOWN_VARIANCE)
 from firenav_framework.geometry import Rigid2D
 
 from ..anchor_ranges import AnchorRanges, TagParams
@@ -173,6 +179,14 @@ class OrcaConstraint(OdometryCorrection):
                                 "says nothing about heading or doors")
         range_max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this "
                                      "are not used to choose a door")
+        free_space_covariance: bool = param(True, description="every step not moved by a "
+                                            "jump reports what the walls around it know of "
+                                            "the position (along and across the heading: "
+                                            "somewhere between the walls either side), "
+                                            "fused by dead_reckoning into its covariance")
+        free_space_reach: float = param(10.0, unit="m", gt=0, description="an axis with no "
+                                        "wall within this on either side says nothing of "
+                                        "the position")
         avoid_team: bool = param(False, description="team members are ORCA agents that avoid "
                                  "each other (reciprocal lines, §2.2)")
         team_time_horizon: float = param(2.0, unit="s", gt=0, description="time horizon for "
@@ -247,7 +261,7 @@ class OrcaConstraint(OdometryCorrection):
             # step while running, cutting a corner or a door): the reset rule's answer,
             # one step sooner
             fix = StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
-        return self._record(me, step, fix)
+        return self._record(me, step, self._with_free_space(step, fix))
 
     def _rules(self, me: _Agent, step: OdometryStep) -> StepCorrection | None:
         """The paper's rules and the guards for one step (module docstring)."""
@@ -312,6 +326,22 @@ class OrcaConstraint(OdometryCorrection):
             return StepCorrection(position=_with_z(moved, step), event="orca_small")
         return StepCorrection(position=_with_z(moved, step),
                               update=Rigid2D.rotation_about(stored, pos), event="orca_rotation")
+
+    def _with_free_space(self, step: OdometryStep, fix: StepCorrection | None
+                         ) -> StepCorrection | None:
+        """``fix`` (None: the step as proposed) with what the walls around the corrected
+        position know of it; jumps (door, reset) are left alone."""
+        p = self.params
+        if not p.free_space_covariance or (fix is not None and fix.jump):
+            return fix
+        position = step.proposed if fix is None else fix.position
+        here = self._tables(self._building.floor_of_z(step.prev[2]))
+        cov = free_space_covariance(here.floor, position[:2], step.heading, p.free_space_reach)
+        if cov is None:
+            return fix
+        if fix is None:
+            return StepCorrection(position=step.proposed.copy(), cov=cov, independent=False)
+        return replace(fix, cov=cov, independent=False)
 
     def _door(self, me: _Agent, step: OdometryStep, here: _FloorTables, pos: np.ndarray,
               move: np.ndarray, wall: int) -> StepCorrection | None:
@@ -397,6 +427,35 @@ class OrcaConstraint(OdometryCorrection):
             tables = self._floors[floor_idx] = _FloorTables(
                 floor, WallGrid(floor, max_agents=MAX_TEAM), DoorTable(floor))
         return tables
+
+
+def free_space_covariance(floor: Floor, position: np.ndarray, heading: float,
+                          reach: float) -> np.ndarray | None:
+    """What the walls around ``position`` (2,) [m] know of it: a measurement covariance
+    (2, 2) [m^2] on the axes along and across ``heading`` [rad], or None if neither axis
+    meets walls within ``reach`` [m] on both sides.
+
+    Along each axis the walker is somewhere between the first walls either side (a and b
+    metres away, found with the floor's segment query), taken as uniform over that
+    extent: the mean squared error of the estimate is (a^3 + b^3) / (3 (a + b)). An axis
+    open beyond ``reach`` on either side is not measured.
+    """
+    c, s = math.cos(heading), math.sin(heading)
+    axes = np.array([[c, s], [-s, c]])
+    dirs = np.concatenate([axes, -axes])                       # +along, +across, -along, -across
+    p0 = np.repeat(np.asarray(position, float)[None, :2], 4, axis=0)
+    hit, frac, _ = floor.first_wall_hit(p0, p0 + reach * dirs)
+    cov = np.zeros((2, 2))
+    known = False
+    for k in range(2):
+        if hit[k] and hit[k + 2]:
+            a, b = reach * float(frac[k]), reach * float(frac[k + 2])
+            var = max((a ** 3 + b ** 3) / (3.0 * max(a + b, 1e-9)), 1e-4)
+            known = True
+        else:
+            var = UNKNOWN_VARIANCE
+        cov += var * np.outer(axes[k], axes[k])
+    return cov if known else None
 
 
 def _with_z(xy: np.ndarray, step: OdometryStep) -> np.ndarray:
