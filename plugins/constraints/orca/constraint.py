@@ -18,7 +18,8 @@ read the angle at which the step meets the wall it touches first (:mod:`.rules`)
 * anything else: the wall holds the agent (it moves with the ORCA velocity closest to
   the INS velocity) and no update is stored;
 * an implausible lag of the corrected agent behind the INS position: the agent is in
-  the wrong compartment and is reset to the INS position. The paper's test is a speed
+  the wrong compartment and is reset to the INS position, never through a wall: by way
+  of the doors between them (one door per step), or, with no way, refused. The paper's test is a speed
   above ``max_speed`` (2.5 m/s, "unnatural for humans") from the agent to the INS
   position (``reset_from: fixed``); a firefighter running at 3 m/s trips it on every
   step. ``reset_from: ins_speed`` (the default) asks instead whether that speed exceeds
@@ -78,6 +79,7 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
+from scipy.sparse.csgraph import dijkstra
 
 from firenav_framework import Angle, PerAgent, Range, param
 from firenav_framework.building import Floor
@@ -115,6 +117,35 @@ class _FloorTables:
     floor: Floor
     grid: WallGrid
     doors: DoorTable
+    door_nodes: np.ndarray          # (2D, 2) a point just either side of each door [m]
+    door_links: np.ndarray          # (2D, 2D) length [m] of the clear line node to node, inf
+
+    def way_towards(self, a: np.ndarray, b: np.ndarray, max_detour: float) -> np.ndarray | None:
+        """The farthest point (2,) [m] in line of sight of ``a`` along the shortest way from
+        ``a`` to ``b`` (2,) [m] through doors (each passed between points just either side
+        of it), if that way is at most ``max_detour`` [m] longer than the straight line;
+        None otherwise."""
+        nodes = self.door_nodes
+        n = len(nodes)
+        if n == 0:
+            return None
+        ends = np.array([a, b], float)
+        near, far = np.repeat(ends, n, axis=0), np.tile(nodes, (2, 1))
+        clear = ~self.floor.crosses_wall(near, far).reshape(2, n)
+        dist = np.where(clear, np.hypot(*(near - far).T).reshape(2, n), np.inf)
+        graph = np.full((n + 2, n + 2), np.inf)
+        graph[:n, :n] = self.door_links
+        graph[n, :n], graph[:n, n + 1] = dist[0], dist[1]
+        lengths, before = dijkstra(np.where(np.isfinite(graph), graph, 0.0), directed=True,
+                                   indices=n, return_predecessors=True)
+        if not lengths[n + 1] <= math.hypot(*(b - a)) + max_detour:
+            return None
+        way, k = [], before[n + 1]
+        while k != n:
+            way.append(k)
+            k = before[k]
+        seen = [k for k in way if clear[0, k]]      # the way back from b: farthest first
+        return nodes[seen[0]].copy()
 
 
 class OrcaConstraint(OdometryCorrection):
@@ -150,6 +181,10 @@ class OrcaConstraint(OdometryCorrection):
                                     "INS's speed that is implausible (ins_speed test)")
         reset_gate: float = param(3.0, ge=0, description="sigmas of the INS step's own "
                                   "uncertainty added to the margin (ins_speed test)")
+        reset_max_detour: float = param(12.0, unit="m", ge=0, description="a reset whose "
+                                        "straight move crosses a wall goes by way of doors "
+                                        "only if that way is at most this much longer; "
+                                        "else it is refused")
         door_search_radius: float = param(4.0, unit="m", gt=0, description="doors farther than "
                                           "this from the agent are not candidates")
         door_line_tolerance: float = param(0.3, unit="m", gt=0, description="a candidate "
@@ -256,11 +291,12 @@ class OrcaConstraint(OdometryCorrection):
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         me = self.agents[step.agent]
         fix = self._rules(me, step)
-        if fix is not None and fix.event != "orca_reset" and self._left_behind(step, fix):
+        if fix is not None and not fix.event.startswith("orca_reset") and \
+                self._left_behind(step, fix):
             # where the rule would leave the agent it lags the INS implausibly (a long
             # step while running, cutting a corner or a door): the reset rule's answer,
-            # one step sooner
-            fix = StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
+            # one step sooner (kept if the reset is refused)
+            fix = self._reset(step) or fix
         return self._record(me, step, self._with_free_space(step, fix))
 
     def _rules(self, me: _Agent, step: OdometryStep) -> StepCorrection | None:
@@ -271,7 +307,9 @@ class OrcaConstraint(OdometryCorrection):
         here = self._tables(self._building.floor_of_z(step.prev[2]))
         if self._implausible_lag(step):
             # Wrong compartment: the agent lags implausibly far behind the INS (§2.2).
-            return StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
+            fix = self._reset(step)
+            if fix is not None:
+                return fix
         grid = here.grid
         code, v_orca, theta, wall, frac = grid.step(pos, target, step.dt, p.radius,
                                                     p.time_horizon, p.team_time_horizon,
@@ -326,6 +364,29 @@ class OrcaConstraint(OdometryCorrection):
             return StepCorrection(position=_with_z(moved, step), event="orca_small")
         return StepCorrection(position=_with_z(moved, step),
                               update=Rigid2D.rotation_about(stored, pos), event="orca_rotation")
+
+    def _reset(self, step: OdometryStep) -> StepCorrection | None:
+        """The wrong-compartment reset to the INS position, never through a wall; None
+        when it is refused.
+
+        The straight move from the agent to the INS position is checked with the floor's
+        segment query. If it crosses a wall, the agent is moved to the first door (or
+        opening) of the shortest way there through doors in line of sight of each other
+        (``orca_reset_via_door``): the next step carries on from the doorway, and the
+        reset rule takes it on if it still lags. With no such way within
+        ``reset_max_detour`` of the straight distance the reset is refused
+        (``orca_reset_refused``, counted) and the walls hold the agent as on any step.
+        """
+        here = self._tables(self._building.floor_of_z(step.prev[2]))
+        pos, target = step.prev[:2], step.proposed[:2]
+        if not here.floor.crosses_wall(pos[None], target[None])[0]:
+            return StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
+        via = here.way_towards(pos, target, self.params.reset_max_detour)
+        if via is None:
+            self.ctx.count("orca_reset_refused")
+            return None
+        return StepCorrection(position=_with_z(via, step), jump=True,
+                              event="orca_reset_via_door")
 
     def _with_free_space(self, step: OdometryStep, fix: StepCorrection | None
                          ) -> StepCorrection | None:
@@ -424,9 +485,27 @@ class OrcaConstraint(OdometryCorrection):
         tables = self._floors.get(floor_idx)
         if tables is None:
             floor = self._building.floors[floor_idx]
+            doors = DoorTable(floor)
             tables = self._floors[floor_idx] = _FloorTables(
-                floor, WallGrid(floor, max_agents=MAX_TEAM), DoorTable(floor))
+                floor, WallGrid(floor, max_agents=MAX_TEAM), doors,
+                *_door_graph(floor, doors, self.params.radius + 0.05))
         return tables
+
+
+def _door_graph(floor: Floor, doors: DoorTable, offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points ``offset`` [m] either side of each door (2D, 2) and the length [m] of the
+    clear line between each two (2D, 2D), inf where it crosses a wall; the two points of
+    a door are linked through it."""
+    nodes = np.concatenate([doors.centers + offset * doors.axes,
+                            doors.centers - offset * doors.axes]).reshape(-1, 2)
+    n = len(nodes)
+    a, b = np.repeat(nodes, n, axis=0), np.tile(nodes, (n, 1))
+    clear = ~floor.crosses_wall(a, b) if n else np.zeros(0, bool)
+    links = np.where(clear, np.hypot(*(a - b).T), np.inf).reshape(n, n)
+    d = len(doors.centers)
+    links[np.arange(d), np.arange(d) + d] = links[np.arange(d) + d, np.arange(d)] = 2 * offset
+    np.fill_diagonal(links, np.inf)
+    return nodes, links
 
 
 def free_space_covariance(floor: Floor, position: np.ndarray, heading: float,
