@@ -15,7 +15,8 @@ and the estimated error is fed back at once as a translation in the update matri
 (from the estimated position) or flagged NLOS by the sensor are not used: their delay
 only lengthens them; ranges farther off than ``gate`` sigmas are counted and dropped;
 within ``min_distance`` of the anchor (horizontally) a range says little about
-direction and is skipped.
+direction and is skipped; a range more than ``max_age`` older than the step it falls in
+is stale.
 """
 from __future__ import annotations
 
@@ -34,6 +35,9 @@ from firenav_framework.geometry import Rigid2D
 from ..anchor_ranges import AnchorRanges, TagParams
 
 __all__ = ["AnchorRangeConstraint"]
+
+#: Most ranges kept per agent while no step comes to use them (10 minutes at 10 Hz).
+MAX_PENDING = 6000
 
 
 @dataclass
@@ -93,8 +97,14 @@ class AnchorRangeConstraint(OdometryCorrection):
             self.ctx.count("ranges_nlos")
             return
         me = self.agents[msg.agent]
-        while me.pending and msg.t - me.pending[0][0] > self.params.max_age:
-            me.pending.popleft()            # no step came to use it (standing still)
+        # Ranges wait for the step they fall in. Their age counts against the last step,
+        # not the newest range: the estimator may hold steps back (dead_reckoning until
+        # it is aligned) and deliver them later with their own, older times.
+        while me.pending and me.t is not None and me.t - me.pending[0][0] > self.params.max_age:
+            me.pending.popleft()            # older than any step still to come can use
+            self.ctx.count("ranges_stale")
+        if len(me.pending) >= MAX_PENDING:
+            me.pending.popleft()            # no step for a long time (standing still)
             self.ctx.count("ranges_stale")
         me.pending.append((msg.t, self._anchors.positions[anchor], msg.range_m, msg.sigma_m))
 
