@@ -79,7 +79,7 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
-from scipy.sparse.csgraph import dijkstra
+from scipy.sparse.csgraph import shortest_path
 
 from firenav_framework import Angle, PerAgent, Range, param
 from firenav_framework.building import Floor
@@ -118,7 +118,8 @@ class _FloorTables:
     grid: WallGrid
     doors: DoorTable
     door_nodes: np.ndarray          # (2D, 2) a point just either side of each door [m]
-    door_links: np.ndarray          # (2D, 2D) length [m] of the clear line node to node, inf
+    door_ways: np.ndarray           # (2D, 2D) shortest way [m] node to node through doors
+    door_before: np.ndarray         # (2D, 2D) the node before the last on that way
 
     def way_towards(self, a: np.ndarray, b: np.ndarray, max_detour: float) -> np.ndarray | None:
         """The farthest point (2,) [m] in line of sight of ``a`` along the shortest way from
@@ -133,19 +134,14 @@ class _FloorTables:
         near, far = np.repeat(ends, n, axis=0), np.tile(nodes, (2, 1))
         clear = ~self.floor.crosses_wall(near, far).reshape(2, n)
         dist = np.where(clear, np.hypot(*(near - far).T).reshape(2, n), np.inf)
-        graph = np.full((n + 2, n + 2), np.inf)
-        graph[:n, :n] = self.door_links
-        graph[n, :n], graph[:n, n + 1] = dist[0], dist[1]
-        lengths, before = dijkstra(np.where(np.isfinite(graph), graph, 0.0), directed=True,
-                                   indices=n, return_predecessors=True)
-        if not lengths[n + 1] <= math.hypot(*(b - a)) + max_detour:
+        total = dist[0][:, None] + self.door_ways + dist[1][None, :]
+        i, j = np.unravel_index(int(np.argmin(total)), total.shape)
+        if not total[i, j] <= math.hypot(*(b - a)) + max_detour:
             return None
-        way, k = [], before[n + 1]
-        while k != n:
-            way.append(k)
-            k = before[k]
-        seen = [k for k in way if clear[0, k]]      # the way back from b: farthest first
-        return nodes[seen[0]].copy()
+        k = j                                   # back from the last node to the first
+        while not clear[0, k]:
+            k = self.door_before[i, k]
+        return nodes[k].copy()
 
 
 class OrcaConstraint(OdometryCorrection):
@@ -181,6 +177,10 @@ class OrcaConstraint(OdometryCorrection):
                                     "INS's speed that is implausible (ins_speed test)")
         reset_gate: float = param(3.0, ge=0, description="sigmas of the INS step's own "
                                   "uncertainty added to the margin (ins_speed test)")
+        reset_way: Literal["doors", "straight"] = param(
+            "doors", description="how a reset reaches the INS position: 'doors' = never "
+            "through a wall (by way of the doors, else refused); 'straight' = straight "
+            "there, through walls if need be (§2.2 as published)")
         reset_max_detour: float = param(12.0, unit="m", ge=0, description="a reset whose "
                                         "straight move crosses a wall goes by way of doors "
                                         "only if that way is at most this much longer; "
@@ -379,7 +379,8 @@ class OrcaConstraint(OdometryCorrection):
         """
         here = self._tables(self._building.floor_of_z(step.prev[2]))
         pos, target = step.prev[:2], step.proposed[:2]
-        if not here.floor.crosses_wall(pos[None], target[None])[0]:
+        if self.params.reset_way == "straight" or \
+                not here.floor.crosses_wall(pos[None], target[None])[0]:
             return StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
         via = here.way_towards(pos, target, self.params.reset_max_detour)
         if via is None:
@@ -492,20 +493,25 @@ class OrcaConstraint(OdometryCorrection):
         return tables
 
 
-def _door_graph(floor: Floor, doors: DoorTable, offset: float) -> tuple[np.ndarray, np.ndarray]:
-    """Points ``offset`` [m] either side of each door (2D, 2) and the length [m] of the
-    clear line between each two (2D, 2D), inf where it crosses a wall; the two points of
-    a door are linked through it."""
+def _door_graph(floor: Floor, doors: DoorTable, offset: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points ``offset`` [m] either side of each door (2D, 2), and between each two the
+    shortest way [m] through clear lines and doors (2D, 2D; inf: none) with the node
+    before the last on it (the two points of a door are linked through it)."""
     nodes = np.concatenate([doors.centers + offset * doors.axes,
                             doors.centers - offset * doors.axes]).reshape(-1, 2)
     n = len(nodes)
+    if n == 0:
+        return nodes, np.zeros((0, 0)), np.zeros((0, 0), int)
     a, b = np.repeat(nodes, n, axis=0), np.tile(nodes, (n, 1))
-    clear = ~floor.crosses_wall(a, b) if n else np.zeros(0, bool)
-    links = np.where(clear, np.hypot(*(a - b).T), np.inf).reshape(n, n)
+    clear = ~floor.crosses_wall(a, b)
+    links = np.where(clear, np.hypot(*(a - b).T), 0.0).reshape(n, n)
     d = len(doors.centers)
     links[np.arange(d), np.arange(d) + d] = links[np.arange(d) + d, np.arange(d)] = 2 * offset
-    np.fill_diagonal(links, np.inf)
-    return nodes, links
+    np.fill_diagonal(links, 0.0)
+    ways, before = shortest_path(links, directed=False, return_predecessors=True)
+    np.fill_diagonal(before, np.arange(n))
+    return nodes, ways, before
 
 
 def free_space_covariance(floor: Floor, position: np.ndarray, heading: float,
@@ -520,21 +526,22 @@ def free_space_covariance(floor: Floor, position: np.ndarray, heading: float,
     open beyond ``reach`` on either side is not measured.
     """
     c, s = math.cos(heading), math.sin(heading)
-    axes = np.array([[c, s], [-s, c]])
-    dirs = np.concatenate([axes, -axes])                       # +along, +across, -along, -across
-    p0 = np.repeat(np.asarray(position, float)[None, :2], 4, axis=0)
-    hit, frac, _ = floor.first_wall_hit(p0, p0 + reach * dirs)
-    cov = np.zeros((2, 2))
-    known = False
-    for k in range(2):
+    x, y = float(position[0]), float(position[1])
+    r = reach
+    p0 = np.array([[x, y], [x, y], [x, y], [x, y]])
+    p1 = np.array([[x + r * c, y + r * s], [x - r * s, y + r * c],
+                   [x - r * c, y - r * s], [x + r * s, y - r * c]])   # +-along, +-across
+    hit, frac, _ = floor.first_wall_hit(p0, p1)
+    var = [UNKNOWN_VARIANCE, UNKNOWN_VARIANCE]
+    for k in (0, 1):
         if hit[k] and hit[k + 2]:
-            a, b = reach * float(frac[k]), reach * float(frac[k + 2])
-            var = max((a ** 3 + b ** 3) / (3.0 * max(a + b, 1e-9)), 1e-4)
-            known = True
-        else:
-            var = UNKNOWN_VARIANCE
-        cov += var * np.outer(axes[k], axes[k])
-    return cov if known else None
+            a, b = r * float(frac[k]), r * float(frac[k + 2])
+            var[k] = max((a ** 3 + b ** 3) / (3.0 * max(a + b, 1e-9)), 1e-4)
+    if var[0] == var[1] == UNKNOWN_VARIANCE:
+        return None
+    va, vc = var
+    xy = (va - vc) * c * s
+    return np.array([[va * c * c + vc * s * s, xy], [xy, va * s * s + vc * c * c]])
 
 
 def _with_z(xy: np.ndarray, step: OdometryStep) -> np.ndarray:
