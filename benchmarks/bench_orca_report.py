@@ -7,7 +7,7 @@ ellipse containment, NEES, trusted, trusted while more than 3 m off). Printed pe
 pooled check-point RMSE with the runs' min / median / max, the largest error, runs
 better than INS alone on the same seed, the pooled change against INS alone, the
 integrity figures (pooled; worst run), the track's wall crossings (runs with any) and
-the resets, refused resets and measurement updates the run counted.
+the resets (straight, by way of doors, refused) the run counted.
 
 Run: ``.venv/bin/python benchmarks/bench_orca_report.py --seeds 2000-2019
 [--scenarios orca_test1,field_corridor_run] [--rows ins,published,firenav]
@@ -31,7 +31,7 @@ ROWS = {"ins": ("INS alone", ROOT / "pipelines" / "ins-baseline.yaml"),
                       ROOT / "pipelines" / "orca-map-matching-as-published.yaml"),
         "firenav": ("firenav", ROOT / "pipelines" / "orca-map-matching.yaml")}
 SCENARIOS = ("orca_test1", "orca_test2", "orca_test3", "field_corridor_run")
-COUNTS = ("orca_reset", "orca_reset_via_door", "orca_reset_refused", "position_updates")
+COUNTS = ("orca_reset", "orca_reset_via_door", "orca_reset_refused")
 
 
 def parse_seeds(text: str) -> list[int]:
