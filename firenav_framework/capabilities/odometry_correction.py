@@ -8,7 +8,9 @@ calls :meth:`OdometryCorrection.correct` of each attached constraint in pipeline
 with an :class:`OdometryStep`; each sees the previous one's result. A constraint answers
 None (leave the step as proposed) or a :class:`StepCorrection`: the corrected position,
 optionally an update composed after the current transform (it moves this and every
-later step), and whether the correction teleports the firefighter (``jump``).
+later step), whether the correction teleports the firefighter (``jump``), and what the
+constraint knows about the corrected position (``cov``, a measurement covariance the
+estimator fuses into its own: tight across a wall the step touched, loose along it).
 
 Constraints keep per-agent state of their own and implement ``reset(agent)``.
 """
@@ -23,7 +25,11 @@ from ..contract.constraint import Constraint
 from ..geometry import Rigid2D
 from ..messages import Odometry
 
-__all__ = ["OdometryStep", "StepCorrection", "OdometryCorrection"]
+__all__ = ["OdometryStep", "StepCorrection", "OdometryCorrection", "UNKNOWN_VARIANCE"]
+
+#: Variance [m^2] standing for "this direction is not measured" in a measurement
+#: covariance (a 1 km sigma): the estimator skips such directions.
+UNKNOWN_VARIANCE = 1e6
 
 
 @dataclass(frozen=True)
@@ -54,12 +60,24 @@ class StepCorrection:
     optional ``update`` composed after the current transform (it moves this and every
     later step). ``jump`` True marks a correction that teleports the agent (door or
     reset rules), which downstream filters should treat as uncertain. ``event`` names
-    the rule that fired (counted in the run summary)."""
+    the rule that fired (counted in the run summary).
+
+    ``cov`` (2, 2) [m^2], optional: the covariance of the horizontal error of
+    ``position`` from this constraint's own evidence (the map or the radio, never the
+    odometry), ENU; a direction it does not measure has variance
+    :data:`UNKNOWN_VARIANCE`. The estimator fuses it as a
+    measurement of the position (Kalman update, Joseph form), so its covariance shrinks
+    where the constraint knows the position. ``independent`` False says the evidence
+    repeats from step to step (the same wall touched again): the estimator then only
+    brings its covariance down *to* ``cov`` along each of its axes, never below it.
+    Ignored on a ``jump``."""
 
     position: np.ndarray
     update: Rigid2D | None = None
     jump: bool = False
     event: str = ""
+    cov: np.ndarray | None = None
+    independent: bool = True
 
 
 class OdometryCorrection(Constraint, capability=True):

@@ -105,29 +105,62 @@ def test_range_that_fits_no_door_keeps_the_agent_out():
     assert end[1] >= 0.25 - 1e-9
 
 
-def test_agent_kept_out_of_a_room_is_reset_to_the_ins_position():
-    """No door anywhere: the wall holds the agent while the INS walks on into the room,
-    until the implied speed exceeds max_speed (wrong compartment, §2.2)."""
-    w = Walker(building(WALL), (0.0, 1.0), -math.pi / 2, orca={"max_speed": 2.5, "reset_from": "fixed"})
+#: The same wall with a door 3 m along it, at x = 3.
+FAR_DOOR_WALL = [[[-50.0, 0.0], [2.55, 0.0]], [[3.45, 0.0], [50.0, 0.0]]]
+FAR_DOOR = [Door("D", 0, np.array([3.0, 0.0]), 0.9, np.array([0.0, -1.0]))]
+
+
+def _crossings(w: Walker, b) -> int:
+    track = np.array([p.position[:2] for p in w.rec.on("pose")])
+    return int(b.floors[0].crosses_wall(track[:-1], track[1:]).sum())
+
+
+def test_agent_kept_out_of_a_room_is_reset_to_the_ins_position_by_way_of_the_door():
+    """The wall holds the agent while the INS walks on into the room, until the implied
+    speed exceeds max_speed (wrong compartment, §2.2); the reset goes to the INS position
+    through the door 3 m away (first to a point just before the door, then on), never
+    through the wall."""
+    b = building(FAR_DOOR_WALL, FAR_DOOR)
+    w = Walker(b, (0.0, 1.0), -math.pi / 2, orca={"max_speed": 2.5, "reset_from": "fixed"})
+    ends = [w.step(0.0, -1.0) for _ in range(5)]
+    events = w.counts()
+    assert events.get("orca_reset_via_door") == 1 and events.get("orca_reset") == 1
+    assert all(e[1] >= 0.25 - 1e-9 for e in ends[:3])
+    np.testing.assert_allclose(ends[3][:2], [3.0, 0.3], atol=1e-9)    # before the door
+    np.testing.assert_allclose(ends[-1][:2], [0.0, -4.0], atol=1e-9)   # the INS position
+    assert _crossings(w, b) == 0
+
+
+def test_a_reset_with_no_way_through_a_door_is_refused():
+    """Issue 15: resets jumped through walls (13 crossings in 4 of 20 report runs). With
+    no door anywhere the reset is refused and counted, and the wall keeps holding the
+    agent (today's code reset it through the wall to the INS position)."""
+    b = building(WALL)
+    w = Walker(b, (0.0, 1.0), -math.pi / 2, orca={"reset_from": "ins_speed"})
     ends = [w.step(0.0, -1.0) for _ in range(4)]
     events = w.counts()
-    assert events.get("orca_reset") == 1
-    assert ends[0][1] >= 0.25 - 1e-9 and ends[1][1] >= 0.25 - 1e-9
-    np.testing.assert_allclose(ends[-1][:2], [0.0, -3.0], atol=1e-9)   # the INS position
+    assert events.get("orca_reset_refused", 0) >= 1 and "orca_reset" not in events
+    assert all(e[1] >= 0.25 - 1e-9 for e in ends)
+    assert _crossings(w, b) == 0
 
 
 def test_speed_aware_reset_comes_once_the_hold_would_outrun_the_ins():
-    """The same room without a door, ``reset_from: ins_speed``: a hold is kept while the
-    lag it leaves behind the INS is within the margin (1.3 m/s over the 1 s step, plus 3
-    sigma of the step: 1.34 m); the first step is held where ORCA's 2 s time horizon
-    lets it go (y 0.625, lag 0.625 m), the second would be held at y 0.44 with
-    the INS at -1 (lag 1.44 m): reset there, and the INS position from then on."""
-    w = Walker(building(WALL), (0.0, 1.0), -math.pi / 2, orca={"reset_from": "ins_speed"})
+    """``reset_from: ins_speed``: a hold is kept while the lag it leaves behind the INS is
+    within the margin (1.3 m/s over the 1 s step, plus 3 sigma of the step: 1.34 m); the
+    first step is held where ORCA's 2 s time horizon lets it go (y 0.625, lag 0.625 m),
+    the second would be held at y 0.44 with the INS at -1 (lag 1.44 m): reset, by way of
+    the door (to just before it, then to the INS position, which it sees through the
+    door), and the INS position from then on."""
+    b = building(FAR_DOOR_WALL, FAR_DOOR)
+    w = Walker(b, (0.0, 1.0), -math.pi / 2, orca={"reset_from": "ins_speed"})
     ends = [w.step(0.0, -1.0) for _ in range(4)]
-    assert w.counts().get("orca_reset") == 1
+    events = w.counts()
+    assert events.get("orca_reset_via_door") == 1 and events.get("orca_reset") == 1
     assert ends[0][1] == pytest.approx(0.625)
-    for k in (1, 2, 3):
+    np.testing.assert_allclose(ends[1][:2], [3.0, 0.3], atol=1e-9)
+    for k in (2, 3):
         np.testing.assert_allclose(ends[k][:2], [0.0, -float(k)], atol=1e-9)
+    assert _crossings(w, b) == 0
 
 
 def test_running_beside_a_wall_is_no_wrong_compartment():
@@ -235,15 +268,19 @@ def test_a_step_through_the_middle_of_a_doorway_is_free():
 
 
 def test_a_turn_square_into_a_wall_does_not_hide_a_wrong_compartment():
-    """Turning 60 deg from along the wall straight into it (no door anywhere): during
-    the turn the contact is no shallow slide, so the path is not translated with the
-    agent; the wall holds the agent while the INS walks on, until the implied speed
-    exceeds max_speed and the agent is reset to the INS position (§2.2)."""
-    w = Walker(building(WALL), (0.0, 1.0), 0.0, orca={"max_speed": 2.5, "reset_from": "fixed"})
+    """Turning 60 deg from along the wall straight into it: during the turn the contact
+    is no shallow slide, so the path is not translated with the agent; the wall holds
+    the agent while the INS walks on, until the implied speed exceeds max_speed and the
+    agent is reset to the INS position (§2.2), by way of the door."""
+    b = building(FAR_DOOR_WALL, FAR_DOOR)
+    w = Walker(b, (0.0, 1.0), 0.0, orca={"max_speed": 2.5, "reset_from": "fixed"})
     w.step(1.0, 0.0)
     into = (0.5, -math.sqrt(3) / 2)
     ends = [w.step(*into, turn=-math.pi / 3 if k == 0 else 0.0) for k in range(5)]
     events = w.counts()
-    assert "orca_turn_slide" not in events and events.get("orca_reset") == 1
+    assert "orca_turn_slide" not in events and events.get("orca_reset_via_door") == 1
     assert all(e[1] >= 0.25 - 1e-9 for e in ends[:3])
     np.testing.assert_allclose(ends[-1][:2], [1.0 + 5 * into[0], 1.0 + 5 * into[1]], atol=1e-9)
+    assert _crossings(w, b) == 0
+
+

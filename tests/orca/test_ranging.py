@@ -9,6 +9,7 @@ import pytest
 from firenav_framework.building import Anchor
 from firenav_framework.testing import check_plugin
 from firenav_plugins.constraints.anchor_range import AnchorRangeConstraint
+from firenav_plugins.constraints.anchor_range.constraint import MAX_PENDING
 from tests.orca.walker import Walker, building
 
 ANCHOR = Anchor("uwb_start", "uwb", np.array([0.0, 0.0, 1.0]), 0)
@@ -85,15 +86,35 @@ def test_nlos_ranges_are_used_when_asked():
 
 
 def test_ranges_waiting_for_a_step_do_not_pile_up():
-    """Standing still (no steps) for a minute at 10 Hz: only the last max_age seconds of
-    ranges are kept."""
+    """Standing still (no steps) at 10 Hz for longer than the pending store holds: the
+    oldest are dropped as stale; the next step uses those of the last max_age seconds
+    and counts the rest stale."""
     w = walker()
     w.step(0.5, 0.0)
-    for k in range(600):
+    n = MAX_PENDING + 50
+    for k in range(n):
         w.range("uwb_start", true_range(2.5), dt=0.1 * k)
     me = w.constraints[0][0].agents["ff1"]
-    assert len(me.pending) <= 21
-    assert w.counts()["ranges_stale"] == 600 - len(me.pending)
+    assert len(me.pending) == MAX_PENDING and w.counts()["ranges_stale"] == 50
+    w.step(0.0, 0.0, dt=0.1 * n)
+    counts = w.counts()
+    assert not me.pending
+    assert counts["ranges_used"] + counts.get("ranges_gated", 0) == 20     # the last 2 s
+    assert counts["ranges_stale"] == n - 20
+
+
+def test_ranges_that_arrive_before_their_steps_wait_for_them():
+    """Issue 15: dead_reckoning holds its first steps back until it is aligned (about
+    12 s of a run) and then delivers them with their own times, after the ranges of the
+    same seconds have arrived. A range is aged against its step, not against the newest
+    range (which dropped all but the last 2 s of them as stale)."""
+    w = walker()
+    for k in range(10):                  # walking 1 m/s from x = 2: x = 2.5 + k at t
+        w.range("uwb_start", true_range(2.5 + k), dt=0.5 + k)
+    for _ in range(10):
+        w.step(1.0, 0.0)
+    counts = w.counts()
+    assert counts["ranges_used"] == 10 and "ranges_stale" not in counts
 
 
 def test_it_is_a_conforming_plugin():

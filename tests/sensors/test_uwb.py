@@ -150,6 +150,25 @@ def test_impossible_range_jumps_are_dropped_until_the_link_relocks():
     assert counts["outliers"] == 3 and counts["relocks"] == 1
 
 
+def test_running_ranges_are_not_outliers():
+    """Issue 15: at a run (4 m/s away from the anchor in a stride, 2-3 s gaps where the
+    direct path is lost) the old 3 m/s bound dropped good ranges as outliers. The default
+    bound is a running human with margin (6 m/s): none is dropped; a multipath blunder
+    still is."""
+    t = np.array([0.0, 1.0, 2.0, 4.5, 5.5, 8.0, 9.0])
+    truth = 5.0 + 4.0 * t
+    items = [("raw", line_frame(float(tk), TwrReport(0.0, "1", "1", float(r), -80, -81)))
+             for tk, r in zip(t, truth)]
+    rec, counts = feed(MAP, items)
+    assert [m.range_m for m in rec.on("range")] == pytest.approx(truth)
+    assert "outliers" not in counts
+    _, counts = feed({**MAP, "gate": {"max_speed": 3.0}}, items)
+    assert counts["outliers"] >= 1                # the old bound
+    blunder = [("raw", line_frame(10.0, TwrReport(0.0, "1", "1", 80.0, -80, -81)))]
+    _, counts = feed(MAP, items + blunder)
+    assert counts["outliers"] == 1
+
+
 def test_dropouts_failures_and_lost_reports_are_reported():
     items = [("raw", line_frame(1.0, TwrReport(0.0, "1", "1", 5.0, -80, -81, 10))),
              ("raw", line_frame(1.2, TwrReport(0.0, "1", "1", None, None, None, 11))),

@@ -15,7 +15,8 @@ and the estimated error is fed back at once as a translation in the update matri
 (from the estimated position) or flagged NLOS by the sensor are not used: their delay
 only lengthens them; ranges farther off than ``gate`` sigmas are counted and dropped;
 within ``min_distance`` of the anchor (horizontally) a range says little about
-direction and is skipped.
+direction and is skipped; a range more than ``max_age`` older than the step it falls in
+is stale.
 """
 from __future__ import annotations
 
@@ -26,13 +27,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from firenav_framework import PerAgent, Range, param
-from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
+from firenav_framework.capabilities.odometry_correction import (UNKNOWN_VARIANCE,
+                                                                OdometryCorrection, OdometryStep,
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
 from ..anchor_ranges import AnchorRanges, TagParams
 
 __all__ = ["AnchorRangeConstraint"]
+
+#: Most ranges kept per agent while no step comes to use them (10 minutes at 10 Hz).
+MAX_PENDING = 6000
 
 
 @dataclass
@@ -92,8 +97,14 @@ class AnchorRangeConstraint(OdometryCorrection):
             self.ctx.count("ranges_nlos")
             return
         me = self.agents[msg.agent]
-        while me.pending and msg.t - me.pending[0][0] > self.params.max_age:
-            me.pending.popleft()            # no step came to use it (standing still)
+        # Ranges wait for the step they fall in. Their age counts against the last step,
+        # not the newest range: the estimator may hold steps back (dead_reckoning until
+        # it is aligned) and deliver them later with their own, older times.
+        while me.pending and me.t is not None and me.t - me.pending[0][0] > self.params.max_age:
+            me.pending.popleft()            # older than any step still to come can use
+            self.ctx.count("ranges_stale")
+        if len(me.pending) >= MAX_PENDING:
+            me.pending.popleft()            # no step for a long time (standing still)
             self.ctx.count("ranges_stale")
         me.pending.append((msg.t, self._anchors.positions[anchor], msg.range_m, msg.sigma_m))
 
@@ -114,6 +125,7 @@ class AnchorRangeConstraint(OdometryCorrection):
         floor = self._building.floors[self._building.floor_of_z(step.prev[2])]
         tag_z = floor.z + p.tag_height
         shift = np.zeros(2)
+        info = np.zeros((2, 2))           # what the used ranges know of the position
         for t_r, anchor, r, sigma in due:
             if step.t - t_r > p.max_age:
                 self.ctx.count("ranges_stale")
@@ -139,9 +151,23 @@ class AnchorRangeConstraint(OdometryCorrection):
             k = me.cov @ h / s
             shift = shift + k * innovation
             me.cov = me.cov - np.outer(k, h @ me.cov)
+            info += np.outer(h, h) / (sigma * sigma)
             self.ctx.count("ranges_used")
         if not shift.any():
             return None
         return StepCorrection(position=np.array([*(step.proposed[:2] + shift), step.proposed[2]]),
-                              update=Rigid2D.translation(shift), event="anchor_range")
+                              update=Rigid2D.translation(shift), event="anchor_range",
+                              cov=_seen(me.cov, info, p.model_sigma ** 2), independent=False)
+
+
+def _seen(cov: np.ndarray, info: np.ndarray, floor: float) -> np.ndarray:
+    """The filter's covariance (2, 2) [m^2] on the axes the ranges observed (those of
+    the information matrix ``info`` (2, 2) [1/m^2]) plus ``floor`` [m^2], the range
+    model error that does not average out from range to range (tag height, body and
+    antenna delays); :data:`UNKNOWN_VARIANCE` across them, where the filter knows only
+    its own step model."""
+    values, axes = np.linalg.eigh(info)
+    var = np.where(values > 1.0 / UNKNOWN_VARIANCE,
+                   np.einsum("ik,ij,jk->k", axes, cov, axes) + floor, UNKNOWN_VARIANCE)
+    return (axes * var) @ axes.T
 

@@ -18,7 +18,8 @@ read the angle at which the step meets the wall it touches first (:mod:`.rules`)
 * anything else: the wall holds the agent (it moves with the ORCA velocity closest to
   the INS velocity) and no update is stored;
 * an implausible lag of the corrected agent behind the INS position: the agent is in
-  the wrong compartment and is reset to the INS position. The paper's test is a speed
+  the wrong compartment and is reset to the INS position, never through a wall: by way
+  of the doors between them (one door per step), or, with no way, refused. The paper's test is a speed
   above ``max_speed`` (2.5 m/s, "unnatural for humans") from the agent to the INS
   position (``reset_from: fixed``); a firefighter running at 3 m/s trips it on every
   step. ``reset_from: ins_speed`` (the default) asks instead whether that speed exceeds
@@ -56,6 +57,12 @@ only a team member is in the way of is deflected, never read as a heading error 
 door. Meant for firefighters moving independently; a team holding on to each other
 (following a step behind) is in constant "collision" and should leave it off.
 
+Every step that no jump moved reports what the walls around the corrected position know
+of it (``free_space_covariance``): along and across the heading the walker is somewhere
+between the first walls either side (a corridor's width, a room's extent);
+``dead_reckoning`` fuses that into its covariance as evidence that repeats from step to
+step (never tighter than the extent says).
+
 ``rotation_from: heading`` stores the rotation of the INS velocity along its heading
 rather than of the step (which sways from stride to stride).
 
@@ -68,15 +75,16 @@ as long as it is not older than ``range_max_age``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
+from scipy.sparse.csgraph import shortest_path
 
 from firenav_framework import Angle, PerAgent, Range, param
 from firenav_framework.building import Floor
 from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
-                                                                StepCorrection)
+                                                                StepCorrection, UNKNOWN_VARIANCE)
 from firenav_framework.geometry import Rigid2D
 
 from ..anchor_ranges import AnchorRanges, TagParams
@@ -109,6 +117,31 @@ class _FloorTables:
     floor: Floor
     grid: WallGrid
     doors: DoorTable
+    door_nodes: np.ndarray          # (2D, 2) a point just either side of each door [m]
+    door_ways: np.ndarray           # (2D, 2D) shortest way [m] node to node through doors
+    door_before: np.ndarray         # (2D, 2D) the node before the last on that way
+
+    def way_towards(self, a: np.ndarray, b: np.ndarray, max_detour: float) -> np.ndarray | None:
+        """The farthest point (2,) [m] in line of sight of ``a`` along the shortest way from
+        ``a`` to ``b`` (2,) [m] through doors (each passed between points just either side
+        of it), if that way is at most ``max_detour`` [m] longer than the straight line;
+        None otherwise."""
+        nodes = self.door_nodes
+        n = len(nodes)
+        if n == 0:
+            return None
+        ends = np.array([a, b], float)
+        near, far = np.repeat(ends, n, axis=0), np.tile(nodes, (2, 1))
+        clear = ~self.floor.crosses_wall(near, far).reshape(2, n)
+        dist = np.where(clear, np.hypot(*(near - far).T).reshape(2, n), np.inf)
+        total = dist[0][:, None] + self.door_ways + dist[1][None, :]
+        i, j = np.unravel_index(int(np.argmin(total)), total.shape)
+        if not total[i, j] <= math.hypot(*(b - a)) + max_detour:
+            return None
+        k = j                                   # back from the last node to the first
+        while not clear[0, k]:
+            k = self.door_before[i, k]
+        return nodes[k].copy()
 
 
 class OrcaConstraint(OdometryCorrection):
@@ -144,6 +177,14 @@ class OrcaConstraint(OdometryCorrection):
                                     "INS's speed that is implausible (ins_speed test)")
         reset_gate: float = param(3.0, ge=0, description="sigmas of the INS step's own "
                                   "uncertainty added to the margin (ins_speed test)")
+        reset_way: Literal["doors", "straight"] = param(
+            "doors", description="how a reset reaches the INS position: 'doors' = never "
+            "through a wall (by way of the doors, else refused); 'straight' = straight "
+            "there, through walls if need be (§2.2 as published)")
+        reset_max_detour: float = param(12.0, unit="m", ge=0, description="a reset whose "
+                                        "straight move crosses a wall goes by way of doors "
+                                        "only if that way is at most this much longer; "
+                                        "else it is refused")
         door_search_radius: float = param(4.0, unit="m", gt=0, description="doors farther than "
                                           "this from the agent are not candidates")
         door_line_tolerance: float = param(0.3, unit="m", gt=0, description="a candidate "
@@ -173,6 +214,14 @@ class OrcaConstraint(OdometryCorrection):
                                 "says nothing about heading or doors")
         range_max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this "
                                      "are not used to choose a door")
+        free_space_covariance: bool = param(True, description="every step not moved by a "
+                                            "jump reports what the walls around it know of "
+                                            "the position (along and across the heading: "
+                                            "somewhere between the walls either side), "
+                                            "fused by dead_reckoning into its covariance")
+        free_space_reach: float = param(10.0, unit="m", gt=0, description="an axis with no "
+                                        "wall within this on either side says nothing of "
+                                        "the position")
         avoid_team: bool = param(False, description="team members are ORCA agents that avoid "
                                  "each other (reciprocal lines, §2.2)")
         team_time_horizon: float = param(2.0, unit="s", gt=0, description="time horizon for "
@@ -242,12 +291,13 @@ class OrcaConstraint(OdometryCorrection):
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         me = self.agents[step.agent]
         fix = self._rules(me, step)
-        if fix is not None and fix.event != "orca_reset" and self._left_behind(step, fix):
+        if fix is not None and not fix.event.startswith("orca_reset") and \
+                self._left_behind(step, fix):
             # where the rule would leave the agent it lags the INS implausibly (a long
             # step while running, cutting a corner or a door): the reset rule's answer,
-            # one step sooner
-            fix = StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
-        return self._record(me, step, fix)
+            # one step sooner (kept if the reset is refused)
+            fix = self._reset(step) or fix
+        return self._record(me, step, self._with_free_space(step, fix))
 
     def _rules(self, me: _Agent, step: OdometryStep) -> StepCorrection | None:
         """The paper's rules and the guards for one step (module docstring)."""
@@ -257,7 +307,9 @@ class OrcaConstraint(OdometryCorrection):
         here = self._tables(self._building.floor_of_z(step.prev[2]))
         if self._implausible_lag(step):
             # Wrong compartment: the agent lags implausibly far behind the INS (§2.2).
-            return StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
+            fix = self._reset(step)
+            if fix is not None:
+                return fix
         grid = here.grid
         code, v_orca, theta, wall, frac = grid.step(pos, target, step.dt, p.radius,
                                                     p.time_horizon, p.team_time_horizon,
@@ -312,6 +364,46 @@ class OrcaConstraint(OdometryCorrection):
             return StepCorrection(position=_with_z(moved, step), event="orca_small")
         return StepCorrection(position=_with_z(moved, step),
                               update=Rigid2D.rotation_about(stored, pos), event="orca_rotation")
+
+    def _reset(self, step: OdometryStep) -> StepCorrection | None:
+        """The wrong-compartment reset to the INS position, never through a wall; None
+        when it is refused.
+
+        The straight move from the agent to the INS position is checked with the floor's
+        segment query. If it crosses a wall, the agent is moved to the first door (or
+        opening) of the shortest way there through doors in line of sight of each other
+        (``orca_reset_via_door``): the next step carries on from the doorway, and the
+        reset rule takes it on if it still lags. With no such way within
+        ``reset_max_detour`` of the straight distance the reset is refused
+        (``orca_reset_refused``, counted) and the walls hold the agent as on any step.
+        """
+        here = self._tables(self._building.floor_of_z(step.prev[2]))
+        pos, target = step.prev[:2], step.proposed[:2]
+        if self.params.reset_way == "straight" or \
+                not here.floor.crosses_wall(pos[None], target[None])[0]:
+            return StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
+        via = here.way_towards(pos, target, self.params.reset_max_detour)
+        if via is None:
+            self.ctx.count("orca_reset_refused")
+            return None
+        return StepCorrection(position=_with_z(via, step), jump=True,
+                              event="orca_reset_via_door")
+
+    def _with_free_space(self, step: OdometryStep, fix: StepCorrection | None
+                         ) -> StepCorrection | None:
+        """``fix`` (None: the step as proposed) with what the walls around the corrected
+        position know of it; jumps (door, reset) are left alone."""
+        p = self.params
+        if not p.free_space_covariance or (fix is not None and fix.jump):
+            return fix
+        position = step.proposed if fix is None else fix.position
+        here = self._tables(self._building.floor_of_z(step.prev[2]))
+        cov = free_space_covariance(here.floor, position[:2], step.heading, p.free_space_reach)
+        if cov is None:
+            return fix
+        if fix is None:
+            return StepCorrection(position=step.proposed.copy(), cov=cov, independent=False)
+        return replace(fix, cov=cov, independent=False)
 
     def _door(self, me: _Agent, step: OdometryStep, here: _FloorTables, pos: np.ndarray,
               move: np.ndarray, wall: int) -> StepCorrection | None:
@@ -394,9 +486,62 @@ class OrcaConstraint(OdometryCorrection):
         tables = self._floors.get(floor_idx)
         if tables is None:
             floor = self._building.floors[floor_idx]
+            doors = DoorTable(floor)
             tables = self._floors[floor_idx] = _FloorTables(
-                floor, WallGrid(floor, max_agents=MAX_TEAM), DoorTable(floor))
+                floor, WallGrid(floor, max_agents=MAX_TEAM), doors,
+                *_door_graph(floor, doors, self.params.radius + 0.05))
         return tables
+
+
+def _door_graph(floor: Floor, doors: DoorTable, offset: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points ``offset`` [m] either side of each door (2D, 2), and between each two the
+    shortest way [m] through clear lines and doors (2D, 2D; inf: none) with the node
+    before the last on it (the two points of a door are linked through it)."""
+    nodes = np.concatenate([doors.centers + offset * doors.axes,
+                            doors.centers - offset * doors.axes]).reshape(-1, 2)
+    n = len(nodes)
+    if n == 0:
+        return nodes, np.zeros((0, 0)), np.zeros((0, 0), int)
+    a, b = np.repeat(nodes, n, axis=0), np.tile(nodes, (n, 1))
+    clear = ~floor.crosses_wall(a, b)
+    links = np.where(clear, np.hypot(*(a - b).T), 0.0).reshape(n, n)
+    d = len(doors.centers)
+    links[np.arange(d), np.arange(d) + d] = links[np.arange(d) + d, np.arange(d)] = 2 * offset
+    np.fill_diagonal(links, 0.0)
+    ways, before = shortest_path(links, directed=False, return_predecessors=True)
+    np.fill_diagonal(before, np.arange(n))
+    return nodes, ways, before
+
+
+def free_space_covariance(floor: Floor, position: np.ndarray, heading: float,
+                          reach: float) -> np.ndarray | None:
+    """What the walls around ``position`` (2,) [m] know of it: a measurement covariance
+    (2, 2) [m^2] on the axes along and across ``heading`` [rad], or None if neither axis
+    meets walls within ``reach`` [m] on both sides.
+
+    Along each axis the walker is somewhere between the first walls either side (a and b
+    metres away, found with the floor's segment query), taken as uniform over that
+    extent: the mean squared error of the estimate is (a^3 + b^3) / (3 (a + b)). An axis
+    open beyond ``reach`` on either side is not measured.
+    """
+    c, s = math.cos(heading), math.sin(heading)
+    x, y = float(position[0]), float(position[1])
+    r = reach
+    p0 = np.array([[x, y], [x, y], [x, y], [x, y]])
+    p1 = np.array([[x + r * c, y + r * s], [x - r * s, y + r * c],
+                   [x - r * c, y - r * s], [x + r * s, y - r * c]])   # +-along, +-across
+    hit, frac, _ = floor.first_wall_hit(p0, p1)
+    var = [UNKNOWN_VARIANCE, UNKNOWN_VARIANCE]
+    for k in (0, 1):
+        if hit[k] and hit[k + 2]:
+            a, b = r * float(frac[k]), r * float(frac[k + 2])
+            var[k] = max((a ** 3 + b ** 3) / (3.0 * max(a + b, 1e-9)), 1e-4)
+    if var[0] == var[1] == UNKNOWN_VARIANCE:
+        return None
+    va, vc = var
+    xy = (va - vc) * c * s
+    return np.array([[va * c * c + vc * s * s, xy], [xy, va * s * s + vc * c * c]])
 
 
 def _with_z(xy: np.ndarray, step: OdometryStep) -> np.ndarray:

@@ -17,7 +17,10 @@ frame, whose yaw and origin are arbitrary) into poses in the building frame:
    :class:`~firenav_framework.capabilities.odometry_correction.OdometryCorrection`) sees
    the step and may move the corrected position and change the update matrix for this
    and all later steps (ORCA's rotation, door and reset rules); constraints run in
-   pipeline order, each seeing the previous one's result.
+   pipeline order, each seeing the previous one's result. A correction that says what it
+   knows of the position (a measurement covariance: across the wall a step touched, along
+   the line to a UWB anchor) is fused into the covariance (:mod:`.fusion`), so the
+   covariance and the protection radius shrink where the map or the radio hold the track.
 
 With no constraints this is the plain "INS alone" baseline in the building frame that
 the evaluations of several papers compare against.
@@ -54,6 +57,7 @@ from firenav_framework.integrity import gaussian_protection_radius, trusted
 from ..odometry_input import accept_odometry
 from ..start_pose import entrance_start
 from .alignment import imu_yaw_offset, straight_chord, truth_at
+from .fusion import fuse_position
 from .params import DeadReckoningParams
 
 __all__ = ["DeadReckoningEstimator"]
@@ -233,6 +237,7 @@ class DeadReckoningEstimator(Estimator):
         proposed = np.array([*st.transform.apply(st.ins[:2]), st.z0 + st.ins[2]])
         heading = wrap_angle(msg.heading + st.yaw_offset + st.transform.angle)
         position, jump, dangle = proposed, False, 0.0
+        measured = []                     # (cov (2, 2), independent) of the corrections
         for c in self.constraints:
             step = OdometryStep(agent=msg.agent, t=msg.t, dt=dt, prev=prev, proposed=position,
                                 heading=heading, transform=st.transform,
@@ -244,6 +249,8 @@ class DeadReckoningEstimator(Estimator):
                 self.ctx.count(fix.event)
             position = np.asarray(fix.position, float)
             jump = jump or fix.jump
+            if fix.cov is not None:
+                measured.append((np.asarray(fix.cov, float), fix.independent))
             if fix.update is not None:
                 st.transform = st.transform.then(fix.update)
                 dangle += fix.update.angle
@@ -268,6 +275,10 @@ class DeadReckoningEstimator(Estimator):
             widen = np.eye(2) * float(off @ off)
             st.cov[:2, :2] += widen
             q[:2, :2] += widen
+        else:
+            for meas, independent in measured:   # what the map / radio know of the position
+                st.cov = fuse_position(st.cov, meas, independent)
+                self.ctx.count("position_updates")
         st.position, st.heading, st.t = position, heading, msg.t
         integrity = self.params.integrity
         radius = gaussian_protection_radius(st.cov[:2, :2], integrity.containment)

@@ -40,8 +40,9 @@ class Gate(Params):
 
     min_range: float = param(0.0, unit="m", ge=0, description="ranges below this are dropped")
     max_range: float = param(150.0, unit="m", gt=0, description="ranges above this are dropped")
-    max_speed: float = param(3.0, unit="m/s", gt=0, description="fastest a firefighter "
-                             "moves, bounding how fast a range can change")
+    max_speed: float = param(6.0, unit="m/s", gt=0, description="fastest a range can "
+                             "change: a firefighter running (3-4 m/s, faster in strides) "
+                             "with margin, since the sensor sees no odometry")
     sigmas: float = param(5.0, gt=0, description="outlier gate beyond the motion bound, "
                           "in range sigmas")
     relock_after: int = param(3, ge=1, description="mutually consistent rejected ranges "
