@@ -314,6 +314,9 @@ class PdrEkfEstimator(Estimator):
             return
         if not (math.isfinite(msg.t) and math.isfinite(msg.height)):
             self.ctx.count("bad_pressure_heights")
+            self.ctx.report(msg.t if math.isfinite(msg.t) else 0.0, "bad_pressure_height",
+                            "barometer heights that are not numbers, skipped",
+                            agent=msg.agent, key=msg.agent)
             return
         if st.baro is None:
             st.baro = BaroFloor(p.config())
