@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import pickle
 import sys
 from pathlib import Path
 
@@ -47,9 +48,23 @@ def floors_right(poses, truth, building) -> np.ndarray:
     return floor_right(est, true_floor, z, levels)
 
 
-def run_seed(scenario, seed: int, params: dict | None = None) -> dict[str, np.ndarray]:
+def inputs(scenario, seed: int, cache: Path | None):
+    """The simulated strides and heights of one run (kept in ``cache`` when given, so
+    that several pdr_ekf settings are tried on the same runs)."""
+    path = cache / f"{Path(scenario).stem}_{seed}.pkl" if cache else None
+    if path is not None and path.is_file():
+        return pickle.loads(path.read_bytes())
+    out = simulated_inputs(scenario, seed, imu_grade="consumer")
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(pickle.dumps(out))
+    return out
+
+
+def run_seed(scenario, seed: int, params: dict | None = None,
+             cache: Path | None = None) -> dict[str, np.ndarray]:
     """Floor right (1/0 per pose, every agent with a barometer) without and with it."""
-    odo, heights, truth, building = simulated_inputs(scenario, seed, imu_grade="consumer")
+    odo, heights, truth, building = inputs(scenario, seed, cache)
     worn = sorted({h.agent for h in heights})
     out = {}
     for name, extra in (("without", []), ("with", heights)):
@@ -71,6 +86,8 @@ def main(argv=None) -> int:
     ap.add_argument("--set", dest="params", default="{}", help="pdr_ekf parameters as JSON "
                     "(e.g. '{\"barometer\": {\"gate\": 1.0}}')")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--cache", type=Path, help="keep the simulated runs here (pickles of "
+                    "this code version: delete them when the simulator or INS changes)")
     args = ap.parse_args(argv)
     seeds = parse_seeds(args.seeds)
     params = json.loads(args.params)
@@ -78,7 +95,7 @@ def main(argv=None) -> int:
     for scenario in args.scenario or SCENARIOS:
         per = {"without": [], "with": []}
         for seed in seeds:
-            r = run_seed(scenario, seed, params)
+            r = run_seed(scenario, seed, params, args.cache)
             for k in per:
                 per[k].append(r[k])
             print(f"{Path(scenario).stem} seed {seed}: floor right without "
@@ -91,6 +108,9 @@ def main(argv=None) -> int:
                        "median": float(np.median(fr)), "max": float(fr.max()),
                        "runs": [float(x) for x in fr]}
         table[Path(scenario).stem] = rows
+        if args.json:    # after every scenario: a long run's finished rows are kept
+            args.json.write_text(json.dumps({"seeds": [seeds[0], seeds[-1]], "params": params,
+                                             "scenarios": table}, indent=1))
     print(f"\nseeds {seeds[0]}-{seeds[-1]} ({len(seeds)} runs), consumer IMU, pdr_ekf without "
           "stair map or tags" + (f", {params}" if params else ""))
     print("| scenario | barometer | floor right pooled | per run min / median / max |\n"
@@ -99,9 +119,6 @@ def main(argv=None) -> int:
         for k, r in rows.items():
             print(f"| {name} | {k} | {100 * r['pooled']:.2f} % | {100 * r['min']:.1f} / "
                   f"{100 * r['median']:.1f} / {100 * r['max']:.1f} % |")
-    if args.json:
-        args.json.write_text(json.dumps({"seeds": [seeds[0], seeds[-1]], "params": params,
-                                         "scenarios": table}, indent=1))
     return 0
 
 

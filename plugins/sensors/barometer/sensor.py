@@ -82,7 +82,7 @@ class BarometerSensor(Sensor):
         period: float = param(0.5, unit="s", gt=0, description="at most one height per "
                               "firefighter this often (the mean of its readings; the end "
                               "of the data flushes the last one)")
-        calibrate_s: float = param(10.0, unit="s", gt=0, description="zeroing: the first "
+        calibrate_s: float = param(3.0, unit="s", gt=0, description="zeroing: the first "
                                    "seconds of a firefighter's readings, at the zeroing level")
         zero_level: float | None = param(None, unit="m", description="building z of the "
                                          "zeroing level (default: the floor of the "
