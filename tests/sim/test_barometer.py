@@ -177,3 +177,12 @@ def test_a_barometer_faster_than_its_part_is_refused():
         BarometerConfig(rate_hz=200.0)
     with pytest.raises(ValueError, match="unknown barometer model"):
         BarometerConfig(model="nope")
+
+
+def test_an_imu_grade_variant_changes_the_imus_and_nothing_else():
+    base, consumer = simulate(_scenario(20.0), 4), simulate(_scenario(20.0), 4,
+                                                           imu_grade="consumer")
+    assert consumer.imu["ff1"].grade == "consumer" and base.imu["ff1"].grade == "xsens_mtw"
+    assert not np.allclose(consumer.imu["ff1"].gyro, base.imu["ff1"].gyro)
+    assert [f.data for f in consumer.messages["baro"]] == [f.data for f in base.messages["baro"]]
+    assert np.array_equal(consumer.truth["ff1"].position, base.truth["ff1"].position)
