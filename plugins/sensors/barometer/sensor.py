@@ -171,7 +171,8 @@ class BarometerSensor(Sensor):
         self._last_t[r.device] = r.t
         if self.params.reference and r.device == self.params.reference:
             self._reference.add(r.t, r.pressure, r.temperature,
-                                max(self.params.reference_window, self.params.calibrate_s))
+                                max(self.params.reference_window, self.params.calibrate_s)
+                                + self.params.rejump_s)
             self.ctx.count("reference_readings")
             return
         agent = self.params.devices.get(r.device) or link_agent or (
@@ -252,7 +253,7 @@ class BarometerSensor(Sensor):
         temperature = p.air_temperature
         if p.reference:
             ref = self._reference.at(t, p.reference_window)
-            if ref is None:  # cannot happen after zeroing with a reference; kept safe
+            if ref is None:  # no reference reading up to t (heard only after it): skipped
                 self.ctx.count("heights_without_reference")
                 return
             ref_p, age, ref_temp, ref_n = ref
