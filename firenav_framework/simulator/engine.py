@@ -5,7 +5,8 @@ plan's errors); the planner turns every leader's plan into legs (tags get stuck 
 first deploying agent passes doors); followers copy their leader's legs ``lag_s``
 later; each :class:`~.movement.Walker` places footfalls; the foot kinematics give
 the IMU's ideal readings, which the grade's errors corrupt; the body tracks drive the
-radio world (breadcrumb drops, RSSI packets), the UWB ranges and the RFID reads.
+radio world (breadcrumb drops, RSSI packets), the UWB ranges, the RFID reads and the
+barometers' pressures (:mod:`.barometer`).
 
 Every random choice draws from its own generator, seeded from ``seed`` and a stable
 name (the agent id and what is drawn), so the same seed gives the same result and
@@ -29,6 +30,7 @@ from .imu_ideal import device_matrix, ideal_imu
 from .mount import MountMotion, imu_kinematics, mount_motion, rocking_on_all_fours
 from .movement import BodyTrack, Walker
 from .planner import Planner
+from .barometer import barometer_frames
 from .breadcrumb_faults import breadcrumb_fates
 from .radio import LinkModel, Node, drawn_radio, packet_readings, simulate_dispensers
 from .result import AgentTruth, ImuRecord, SimulationResult
@@ -46,12 +48,15 @@ def rng_for(seed: int, *names: str) -> np.random.Generator:
 
 
 def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: float | None = None,
-             building=None, imu_errors: str | None = None) -> SimulationResult:
+             building=None, imu_errors: str | None = None,
+             imu_grade: str | None = None) -> SimulationResult:
     """Run ``scenario`` (a Scenario, a file or a bundled name) with ``seed``.
 
     ``duration_s`` caps the run (else the scenario's ``duration_s``, else until every
     plan has ended plus ``end_still_s``). ``imu_errors`` (one of
-    :data:`~.imu_grades.IMU_ERRORS`) replaces every IMU's own ``errors`` setting.
+    :data:`~.imu_grades.IMU_ERRORS`) replaces every IMU's own ``errors`` setting,
+    ``imu_grade`` (a grade name) every IMU's ``grade`` (a consumer-IMU variant of a
+    scenario: the same walk and every other sensor's signal unchanged).
     """
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     m = sc.model
@@ -104,7 +109,8 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
         table = w.stride_table()
         cfg = agent.sensors.imu
         if cfg is not None and cfg.switch_on_s < t_end - 2.0 / cfg.rate_hz:  # else: not on yet
-            rec, kin, mount = _imu(b, sc, seed, agent, table, w, t_end, lat, imu_errors)
+            rec, kin, mount = _imu(b, sc, seed, agent, table, w, t_end, lat, imu_errors,
+                                   imu_grade)
             imu[agent.id] = rec
         truth[agent.id] = AgentTruth(
             agent=agent.id, t=tt, position=pos, heading=hd,
@@ -158,6 +164,11 @@ def simulate(scenario: Scenario | str | Path, seed: int = 0, *, duration_s: floa
                                         tag_id=tag_id, reader=f"{agent.id}/rfid",
                                         rssi_dbm=rssi, reads=reads))
         messages["rfid"] = sorted(det, key=lambda x: x.t)
+
+    # -- barometers -------------------------------------------------------------------
+    if any(a.sensors.barometer is not None for a in m.agents):
+        messages["baro"], extra["baro"] = barometer_frames(
+            b, m, bodies, t_end, lambda *names: rng_for(seed, *names))
 
     # -- UWB --------------------------------------------------------------------------
     if any(a.sensors.uwb is not None for a in m.agents):
@@ -268,12 +279,13 @@ def _walk(b, sc: Scenario, seed: int, agent: AgentSpec, person, start, legs, t0:
 
 
 def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_end: float,
-         lat: float, imu_errors: str | None) -> tuple[ImuRecord, FootKinematics,
-                                                     MountMotion | None]:
+         lat: float, imu_errors: str | None, imu_grade: str | None = None
+         ) -> tuple[ImuRecord, FootKinematics, MountMotion | None]:
     cfg = agent.sensors.imu
     env = sc.model.environment
     errors = imu_errors or cfg.errors
-    gyro_spec, accel_spec, mag_spec = error_specs(get_grade(cfg.grade), errors, gyro=cfg.gyro,
+    grade = imu_grade or cfg.grade
+    gyro_spec, accel_spec, mag_spec = error_specs(get_grade(grade), errors, gyro=cfg.gyro,
                                                   accel=cfg.accel, mag=cfg.mag)
     fs = cfg.rate_hz
     phase = rng_for(seed, "clock", agent.id).uniform(0, 1.0 / fs)
@@ -312,7 +324,7 @@ def _imu(b, sc: Scenario, seed: int, agent: AgentSpec, table, walker: Walker, t_
         b_n = earth + field(pose.position)
         b_b = np.einsum("nji,nj->ni", pose.c_bn, b_n) @ dev.T
         mag = magnetometer(b_b, mag_spec, mrng)
-    rec = ImuRecord(agent=agent.id, device=f"{agent.id}/imu", grade=cfg.grade, rate_hz=fs,
+    rec = ImuRecord(agent=agent.id, device=f"{agent.id}/imu", grade=grade, rate_hz=fs,
                     frame=cfg.axes, time=t, accel=acc, gyro=gyr, mag=mag,
                     saturated=sat_a | sat_g,
                     errors={"condition": errors, "gyro": err_g.as_dict(),

@@ -4,7 +4,8 @@ The files (specified in ``docs/formats/simulation-output.md``):
 
 * ``imu_<agent>.csv``: the foot IMU in the firenav IMU CSV format, device axes;
 * ``streams.jsonl``: a header line, then every other sensor message (UWB ranges,
-  RSSI readings, breadcrumb drops, RFID detections, tag deployments) one JSON object
+  RSSI readings, breadcrumb drops, RFID detections, tag deployments, barometer lines
+  as ``raw_frame`` records) one JSON object
   per line in time order; the ``recording`` source replays the whole run from it;
 * ``truth.csv``: the body ground truth per agent at the truth rate;
 * ``truth.json``: what does not move or is drawn once: tag, breadcrumb and anchor
@@ -24,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..messages import (BreadcrumbDrop, Message, Range, RssiReading, TagDeployment,
+from ..messages import (BreadcrumbDrop, Message, Range, RawFrame, RssiReading, TagDeployment,
                         TagDetection)
 from ..formats.imu_csv import write_imu_csv
 from .result import SimulationResult
@@ -40,6 +41,7 @@ MESSAGE_FIELDS: dict[str, tuple[type[Message], tuple[str, ...]]] = {
     "breadcrumb_drop": (BreadcrumbDrop, ("node_id",)),
     "tag_detection": (TagDetection, ("tag_id", "reader", "rssi_dbm", "reads")),
     "tag_deployment": (TagDeployment, ("tag_id",)),
+    "raw_frame": (RawFrame, ("transport", "channel", "data")),
 }
 _TYPE_OF = {cls: name for name, (cls, _) in MESSAGE_FIELDS.items()}
 
@@ -55,7 +57,8 @@ def message_record(port: str, msg: Message) -> dict[str, Any]:
                            "device": msg.device}
     for f in MESSAGE_FIELDS[kind][1]:
         v = getattr(msg, f)
-        rec[f] = _num(v) if isinstance(v, float) else v
+        rec[f] = _num(v) if isinstance(v, float) else v.decode("latin-1") if isinstance(
+            v, bytes) else v
     return rec
 
 

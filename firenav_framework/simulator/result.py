@@ -78,7 +78,8 @@ class SimulationResult:
 
     ``messages`` maps a stream (port) name to its messages in time order: ``uwb``
     (Range), ``rssi`` (RssiReading), ``drops`` (BreadcrumbDrop), ``rfid``
-    (TagDetection), ``tags`` (TagDeployment), ``truth`` (GroundTruth). IMU data stay as
+    (TagDetection), ``tags`` (TagDeployment), ``baro`` (RawFrame: barometer lines),
+    ``truth`` (GroundTruth). IMU data stay as
     arrays in ``imu`` and become ImuBlocks on demand. ``tags``, ``breadcrumbs`` and
     ``anchors`` hold the true positions of fixed things; ``extra`` per-message truth
     (e.g. the true range of each UWB measurement). ``building`` is the plan the pipeline

@@ -69,6 +69,40 @@ class Temperature(_Model):
     tau_s: float = Field(600.0, gt=0, description="time constant of the change [s]")
 
 
+class Pressure(_Model):
+    """The air the barometers are in (simulator/barometer.py): weather, drawn per seed
+    and drifting, and the building's own pressure against the outside."""
+
+    sea_level_pa: tuple[float, float] = Field((99_000.0, 103_000.0), description="sea-level "
+                                              "pressure at the start, drawn in this range [Pa]")
+    trend_pa_per_h: float = Field(50.0, ge=0, description="1-sigma of the weather's linear "
+                                  "trend, drawn per seed [Pa/h] (a front: 100-300 Pa/h)")
+    weather_rw_pa_per_sqrt_s: float = Field(0.05, ge=0, description="weather random walk "
+                                            "[Pa/sqrt(s)]")
+    site_elevation_m: float | None = Field(None, description="height of building z = 0 above "
+                                           "sea level [m] (default: the plan's georef "
+                                           "altitude, else 0)")
+    outside_c: tuple[float, float] = Field((-5.0, 25.0), description="outside air "
+                                           "temperature, drawn in this range [C]")
+    inside_c: float = Field(20.0, ge=-20, le=80, description="inside air temperature [C]")
+    neutral_plane: tuple[float, float] = Field((0.3, 0.7), description="height of the stack "
+                                               "effect's neutral plane as a share of the "
+                                               "building's height, drawn in this range")
+    floor_sigma_pa: float = Field(2.0, ge=0, description="1-sigma of a per-floor offset "
+                                  "(ventilation zones), drawn per floor [Pa]")
+    ventilation_rw_pa_per_sqrt_s: float = Field(0.05, ge=0, description="random walk of the "
+                                                "inside pressure [Pa/sqrt(s)]")
+    door_rate_per_min: float = Field(1.0, ge=0, description="door openings per minute "
+                                     "(Poisson), each a step of the inside pressure")
+    door_step_pa: float = Field(3.0, ge=0, description="1-sigma of a door opening's step [Pa]")
+    door_open_s: float = Field(30.0, gt=0, description="mean time a door stays open [s]")
+    fire_pa: float = Field(10.0, ge=0, description="overpressure within a metre of a burning "
+                           "fire zone [Pa]")
+    reference: bool = Field(True, description="a reference barometer (device base/baro, the "
+                            "worn ones' model) outside the first entrance, 1 m up")
+    reference_rate_hz: float = Field(1.0, gt=0, le=50, description="its reading rate")
+
+
 class Environment(_Model):
     gravity: float = Field(9.81, gt=9.7, lt=9.9, description="local gravity [m/s^2]")
     earth_rate: bool = Field(True, description="include the Earth rotation in the gyros")
@@ -76,6 +110,7 @@ class Environment(_Model):
                                        "building's georef latitude, else 50")
     magnetic: Magnetic = Magnetic()
     temperature: Temperature = Temperature()
+    pressure: Pressure = Pressure()
 
 
 class Fire(_Model):
@@ -327,8 +362,52 @@ class BreadcrumbFaults(_Model):
                        "fire reaches it")
 
 
+class BarometerConfig(_Model):
+    """A worn MEMS barometer: a named part (:data:`~.barometer.BAROMETER_MODELS`, its
+    datasheet figures) with optional overrides, its rate and where it is worn."""
+
+    model: str = Field("ms5611", description="named part (simulator/barometer.py)")
+    rate_hz: float = Field(10.0, gt=0, description="readings per second")
+    height_m: float = Field(1.3, ge=0, le=2.5, description="above the floor when standing "
+                            "(shoulder strap, SCBA); 40 % of it crawling, 60 % kneeling")
+    switch_on_s: float = Field(0.0, ge=0, description="when it starts reading [s]")
+    noise_pa: float | None = Field(None, ge=0, description="override: white noise [Pa]")
+    resolution_pa: float | None = Field(None, ge=0, description="override: output step [Pa]")
+    offset_pa: float | None = Field(None, ge=0, description="override: offset range [Pa]")
+    drift_pa_per_sqrt_s: float | None = Field(None, ge=0, description="override: drift")
+    latency_s: float | None = Field(None, ge=0, le=2, description="override: latency [s]")
+
+    @field_validator("model")
+    @classmethod
+    def _model(cls, v: str) -> str:
+        from .barometer import BAROMETER_MODELS
+        if v not in BAROMETER_MODELS:
+            raise ValueError(f"unknown barometer model {v!r}; known: {', '.join(BAROMETER_MODELS)}")
+        return v
+
+    @model_validator(mode="after")
+    def _rate(self) -> "BarometerConfig":
+        spec = self.spec()
+        if self.rate_hz > spec.max_rate_hz:
+            raise ValueError(f"rate_hz {self.rate_hz:g} is above the {self.model}'s "
+                             f"{spec.max_rate_hz:g} Hz")
+        return self
+
+    def spec(self):
+        """The part's :class:`~.barometer.BaroSpec` with the overrides applied."""
+        import dataclasses
+
+        from .barometer import BAROMETER_MODELS
+        over = {k: getattr(self, k) for k in ("noise_pa", "resolution_pa", "offset_pa",
+                                              "drift_pa_per_sqrt_s", "latency_s")
+                if getattr(self, k) is not None}
+        return dataclasses.replace(BAROMETER_MODELS[self.model], **over)
+
+
 class Sensors(_Model):
     imu: ImuConfig | None = ImuConfig()
+    barometer: BarometerConfig | None = Field(None, description="a worn barometer "
+                                              "(default: none)")
     uwb: UwbConfig | None = None
     rfid: RfidConfig | None = None
     dispenser: DispenserConfig | None = None

@@ -4,8 +4,9 @@ Ports (only those the scenario produces are declared): ``imu`` (ImuBlock per foo
 IMU, device id ``<agent>/imu``, in the device axes the scenario declares, FLU by
 default), ``uwb`` (Range, ``a=<agent>/uwb``, ``b=<anchor>``), ``rssi``
 (RssiReading among breadcrumbs, base station and firefighters' radios), ``drops``
-(BreadcrumbDrop), ``rfid`` (TagDetection), ``tags`` (TagDeployment), ``truth``
-(GroundTruth per agent at the scenario's truth rate, with the floor).
+(BreadcrumbDrop), ``rfid`` (TagDetection), ``tags`` (TagDeployment), ``baro``
+(RawFrame: every barometer's ``baro_lines`` on one serial link, for the ``barometer``
+sensor), ``truth`` (GroundTruth per agent at the scenario's truth rate, with the floor).
 The source brings the scenario's building, so map-aided plugins need no
 ``building:`` line: the plan the scenario gives the pipeline (its ``building``), never
 the world the simulator walked when the scenario's ``world`` says the two differ
@@ -16,15 +17,17 @@ from __future__ import annotations
 from collections.abc import Iterator
 from pathlib import Path
 
+from pydantic import field_validator
+
 from ..contract import Params, Source, param, pipeline_dir
 from ..messages import (BreadcrumbDrop, Diagnostic, GroundTruth, ImuBlock, Message, Range,
-                        RssiReading, TagDeployment, TagDetection)
-from ..simulator.imu_grades import ImuErrors
+                        RawFrame, RssiReading, TagDeployment, TagDetection)
+from ..simulator.imu_grades import ImuErrors, get_grade
 from ..yaml_locations import ConfigError
 
 PORTS: dict[str, type[Message]] = {
     "imu": ImuBlock, "uwb": Range, "rssi": RssiReading, "drops": BreadcrumbDrop,
-    "rfid": TagDetection, "tags": TagDeployment, "truth": GroundTruth,
+    "rfid": TagDetection, "tags": TagDeployment, "baro": RawFrame, "truth": GroundTruth,
 }
 
 
@@ -38,6 +41,8 @@ def scenario_ports(scenario) -> set[str]:
         ports.add("uwb")
     if any(a.sensors.rfid is not None for a in m.agents):
         ports |= {"rfid", "tags"}
+    if any(a.sensors.barometer is not None for a in m.agents):
+        ports.add("baro")
     dispensers = any(a.sensors.dispenser is not None for a in m.agents)
     radios = [a for a in m.agents if a.sensors.radio]
     if dispensers or radios:
@@ -65,6 +70,16 @@ class SimulatorSource(Source):
                                              "replacing the scenario's: as_worn, "
                                              "calibrated, datasheet or ideal (default: the "
                                              "scenario's own, as_worn unless it says)")
+        imu_grade: str | None = param(None, description="grade of every foot IMU, "
+                                      "replacing the scenario's (e.g. consumer: a "
+                                      "consumer-IMU variant of the same walk)")
+
+        @field_validator("imu_grade")
+        @classmethod
+        def _known_grade(cls, v: str | None) -> str | None:
+            if v is not None:
+                get_grade(v)
+            return v
 
     @classmethod
     def output_ports(cls, params: Params) -> dict[str, type[Message]]:
@@ -77,7 +92,7 @@ class SimulatorSource(Source):
         from ..simulator import load_scenario, simulate
         self.scenario = load_scenario(_scenario_path(params.scenario, ctx.base_dir))
         self.result = simulate(self.scenario, params.seed, duration_s=params.duration,
-                               imu_errors=params.imu_errors)
+                               imu_errors=params.imu_errors, imu_grade=params.imu_grade)
         self._ports = scenario_ports(self.scenario)
 
     def building(self):

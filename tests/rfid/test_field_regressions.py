@@ -5,27 +5,23 @@ held by a test that fails on the paper's filter as firenav shipped it before:
   the deploying agent is corrected to the wrong door and every later reader of the tag
   is pulled there too (10 of 70 reads on the wrong door);
 * the floor is wrong when counted stairs miss a flight (floor right 97 %); a fitted
-  barometer must put it right without a stair map;
+  barometer puts it right without a stair map (tests/rfid/test_baro_floor.py);
 * poses are trusted while metres off (no protection radius, trusted always).
 """
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from firenav_framework.building import bundled_plan, load_building
-from firenav_framework.evaluation.metrics import floor_right
 from firenav_framework.testing import make_component
 from firenav_plugins.estimators.pdr_ekf import PdrEkfEstimator
 
-from .baro_sim import baro_heights, simulated_strides
 from .synth import closest_passes, deployments, detections, feed, odometry, track_errors, walk
 
 DEG = math.pi / 180
-DATA = Path(__file__).parent / "data"
 #: In from the entrance, west along the corridor and through the stairwell door d0_stair
 #: (5.5, 6.75), which has d0_n1 (6.5, 8.0) 1.6 m away.
 ROUTE = [(13.5, 0.0), (13.5, 6.75), (3.0, 6.75), (3.0, 6.0)]
@@ -103,31 +99,3 @@ def test_no_pose_is_trusted_while_far_off_and_the_flag_means_it(building):
     assert not np.any(trusted & (err > 3.0))
     assert np.all(err[trusted] <= radius[trusted])
     assert trusted[:5].all()                     # and trusted at the start, next to the door
-
-
-def test_a_barometer_keeps_the_floor_without_a_stair_map():
-    """The RFID route up two floors and back with a consumer IMU and no still start
-    (tests/rfid/data/rfid_consumer_baro.yaml), no stair map (the paper's counted
-    stairs), tuning seeds 100 and 105: the INS's counted stairs put the agent on the
-    wrong floor for over a quarter of the walk. With a worn barometer (weather, indoor
-    offset, stairwell pressure: tests/rfid/baro_sim.py) the floor is right >= 99.5 % of
-    the time pooled (the issue's goal) and >= 99 % in each run, beside the same filter
-    without it, counted as ``firenav evaluate`` does."""
-    right = {"none": [], "baro": []}
-    for seed in (100, 105):
-        odo, truth, building = simulated_strides(DATA / "rfid_consumer_baro.yaml", seed)
-        baro = baro_heights(truth["ff1"], "ff1", np.random.default_rng(seed))
-        levels = np.array([f.z for f in building.floors])
-        for name, extra in (("none", []), ("baro", baro)):
-            _, rec, counts = run(building, odo + extra, rfid={"enabled": False},
-                                 height={"stair_zone": None})
-            poses = [p for p in rec.on("pose") if p.agent == "ff1"]
-            t = np.array([p.t for p in poses])
-            z = np.interp(t, truth["ff1"].t, truth["ff1"].position[:, 2])
-            right[name].append(floor_right(np.array([p.floor for p in poses]),
-                                           np.array([building.floor_of_z(v) for v in z]),
-                                           z, levels))
-        assert counts["pressure_heights"] == len(baro)
-    assert all(np.nanmean(r) < 0.75 for r in right["none"])
-    assert all(np.nanmean(r) >= 0.99 for r in right["baro"])
-    assert np.nanmean(np.concatenate(right["baro"])) >= 0.995

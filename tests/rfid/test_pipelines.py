@@ -9,7 +9,7 @@ from firenav_framework.pipeline import load_pipeline
 from firenav_framework.runner import run_pipeline
 
 PIPELINES = ["rfid-ekf.yaml", "rfid-mems-baseline.yaml", "team.yaml", "rfid-ekf-field.yaml",
-             "rfid-mems-field.yaml", "rfid-ekf-as-published.yaml"]
+             "rfid-mems-field.yaml", "rfid-ekf-as-published.yaml", "pdr-baro.yaml"]
 
 
 @pytest.mark.parametrize("name", PIPELINES)

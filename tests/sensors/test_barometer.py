@@ -57,7 +57,8 @@ def heights(rec) -> list[PressureHeight]:
 
 
 def test_height_above_the_entrance_against_the_standard_atmosphere():
-    rec = run_component(BarometerSensor, {}, [("udp.raw", f) for f in frames()])
+    # the zeroing over the 10 s the wearer stands at the entrance (the default is 3 s)
+    rec = run_component(BarometerSensor, {"calibrate_s": 10.0}, [("udp.raw", f) for f in frames()])
     out = heights(rec)
     t = np.array([h.t for h in out])
     z = np.array([h.height for h in out])
@@ -86,7 +87,7 @@ def test_height_above_the_entrance_against_the_standard_atmosphere():
 
 
 def test_without_a_reference_the_drift_grows_the_uncertainty():
-    rec = run_component(BarometerSensor, {"reference": ""},
+    rec = run_component(BarometerSensor, {"reference": "", "calibrate_s": 10.0},
                         [("udp.raw", f) for f in frames(200.0, drift=-0.05, reference=False)])
     out = heights(rec)
     last = out[-1]
@@ -98,7 +99,7 @@ def test_without_a_reference_the_drift_grows_the_uncertainty():
 
 def test_zero_level_is_the_entrance_floor_of_the_building():
     building = load_building(bundled_plan("three_storey"))
-    rec = run_component(BarometerSensor, {}, [("udp.raw", f) for f in frames()],
+    rec = run_component(BarometerSensor, {"calibrate_s": 10.0}, [("udp.raw", f) for f in frames()],
                         building=building)
     z0 = building.floor(building.entrances[0].floor).z
     assert {h.zero_level for h in heights(rec)} == {z0}

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...messages import (BreadcrumbDrop, GroundTruth, Message, Range, RssiReading,
-                         TagDeployment, TagDetection)
+from ...messages import (BreadcrumbDrop, GroundTruth, Message, Range, RawFrame,
+                         RssiReading, TagDeployment, TagDetection)
 from ...formats.base import ReaderError, ReadOptions
 from ...formats.imu_csv import ImuCsvReader
 from ...time_merge import merge_in_time
@@ -34,7 +34,7 @@ from ...timeline import TimelineConfig
 FORMAT = "firenav-sim-streams"
 
 PORTS = {"uwb": Range, "rssi": RssiReading, "drops": BreadcrumbDrop, "rfid": TagDetection,
-         "tags": TagDeployment}
+         "tags": TagDeployment, "baro": RawFrame}
 
 #: ``type`` of a record -> message class and its (field, converter) list.
 _RECORDS = {
@@ -45,9 +45,11 @@ _RECORDS = {
     "tag_detection": (TagDetection, (("tag_id", str), ("reader", str), ("rssi_dbm", float),
                                      ("reads", int))),
     "tag_deployment": (TagDeployment, (("tag_id", str),)),
+    "raw_frame": (RawFrame, (("transport", str), ("channel", str),
+                             ("data", lambda v: str(v).encode("latin-1")))),
 }
 _DEFAULT_PORT = {"range": "uwb", "rssi": "rssi", "breadcrumb_drop": "drops",
-                 "tag_detection": "rfid", "tag_deployment": "tags"}
+                 "tag_detection": "rfid", "tag_deployment": "tags", "raw_frame": "baro"}
 
 
 def parse_record(rec: dict) -> tuple[str, Message]:

@@ -14,7 +14,10 @@ the barometer's offset is the weak part of the other, so:
   every report (the floor changes as the agent climbs, not after), except while the
   filter follows a flight of the building's stair map (exact there);
 * the agent is *on a level* while the barometer's heights over the last ``window``
-  seconds span less than ``still_range`` (a stair is 0.15-0.2 m, a stride two of them);
+  seconds span less than ``still_range`` (a stair is 0.15-0.2 m, a stride two of them)
+  and no stride of that window was classed as stairs (a slow climb, a pause on a
+  flight: the barometer alone would take it for a level and teach the offset part of
+  the climb);
 * on a level the offset is learnt towards ``height_baro - L``, ``L`` the floor level
   nearest to the barometer's height when that is within ``gate``, by a scalar Kalman
   filter whose state is a random walk (``offset_rw``: doors and fire move it over
@@ -69,9 +72,11 @@ class BaroFloor:
         h = [r[1] for r in self.recent]
         return max(h) - min(h) < self.cfg.still_range
 
-    def update(self, t: float, height: float, levels: np.ndarray) -> tuple[float, float]:
+    def update(self, t: float, height: float, levels: np.ndarray, learn: bool = True
+               ) -> tuple[float, float]:
         """A barometer ``height`` [m] (building z) at ``t`` [s]; ``levels`` the floor
-        levels [m]. The agent's height [m] and its variance [m^2] (module docstring)."""
+        levels [m]; ``learn``: no stair stride within the window (the offset may be
+        learnt). The agent's height [m] and its variance [m^2] (module docstring)."""
         c = self.cfg
         if math.isfinite(self.t):
             self.var += c.offset_rw ** 2 * max(0.0, t - self.t)
@@ -79,7 +84,7 @@ class BaroFloor:
         self.recent.append((t, height))
         while self.recent and self.recent[0][0] < t - c.window:
             self.recent.popleft()
-        if len(levels) and self.on_level():
+        if learn and len(levels) and self.on_level():
             mean = float(np.mean([r[1] for r in self.recent]))
             level = float(levels[np.argmin(np.abs(levels - (mean - self.offset)))])
             if abs(mean - self.offset - level) <= c.gate:

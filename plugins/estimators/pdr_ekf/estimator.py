@@ -100,6 +100,7 @@ class _Agent:
     last_tag: tuple[str, float] | None = None
     contradicted: bool = False        # a tag read contradicted the track, none agreed since
     baro: BaroFloor | None = None
+    stairs_t: float = -math.inf       # end of the last stride classed as stairs [s]
 
 
 class PdrEkfEstimator(Estimator):
@@ -223,6 +224,8 @@ class PdrEkfEstimator(Estimator):
         if gait.gait != "still":
             cov = cov + np.eye(2) * max(self.params.process.stride_noise ** 2, MIN_STRIDE_VAR)
             st.walk_dir = math.atan2(d[1], d[0])
+        if gait.gait in STAIR_GAITS:
+            st.stairs_t = msg.t
         if st.flights is not None:
             label, dz, var_z, level = self._flight_height(msg.agent, st, gait, d, now, msg.t)
         else:
@@ -314,10 +317,14 @@ class PdrEkfEstimator(Estimator):
             return
         if not (math.isfinite(msg.t) and math.isfinite(msg.height)):
             self.ctx.count("bad_pressure_heights")
+            self.ctx.report(msg.t if math.isfinite(msg.t) else 0.0, "bad_pressure_height",
+                            "barometer heights that are not numbers, skipped",
+                            agent=msg.agent, key=msg.agent)
             return
         if st.baro is None:
             st.baro = BaroFloor(p.config())
-        z, var = st.baro.update(msg.t, float(msg.height), self._floor_levels)
+        z, var = st.baro.update(msg.t, float(msg.height), self._floor_levels,
+                                learn=msg.t - st.stairs_t > p.window)
         self.ctx.count("pressure_heights")
         if st.flights is not None and st.flights.on_stairs:
             return

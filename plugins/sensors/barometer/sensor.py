@@ -13,6 +13,7 @@ from firenav_framework.codecs.selection import CodecSelection, TransportCodecs
 from firenav_framework.contract import NoBuilding
 from firenav_framework.messages import Message, PressureHeight
 
+from .guard import Guard, GuardConfig
 from .height import Window, Zeroing, height_above, metres_per_pascal
 
 __all__ = ["BarometerSensor"]
@@ -62,6 +63,7 @@ class _Wearer:
     zeroing: Zeroing = field(default_factory=Zeroing)
     device: str = ""
     zeroed_at: float = math.nan
+    guard: Guard = field(default_factory=Guard)
 
 
 class BarometerSensor(Sensor):
@@ -80,7 +82,7 @@ class BarometerSensor(Sensor):
         period: float = param(0.5, unit="s", gt=0, description="at most one height per "
                               "firefighter this often (the mean of its readings; the end "
                               "of the data flushes the last one)")
-        calibrate_s: float = param(10.0, unit="s", gt=0, description="zeroing: the first "
+        calibrate_s: float = param(3.0, unit="s", gt=0, description="zeroing: the first "
                                    "seconds of a firefighter's readings, at the zeroing level")
         zero_level: float | None = param(None, unit="m", description="building z of the "
                                          "zeroing level (default: the floor of the "
@@ -98,6 +100,19 @@ class BarometerSensor(Sensor):
                                   "in 3 h; fronts are faster)")
         reference_window: float = param(10.0, unit="s", gt=0, description="the reference "
                                         "is the mean of its readings this long before")
+        stuck_readings: int = param(20, ge=3, description="this many identical readings "
+                                    "in a row: the sensor is stuck (a live one's noise "
+                                    "changes its last digit), readings skipped until it "
+                                    "moves")
+        max_step: float = param(100.0, unit="Pa", gt=0, description="a reading further "
+                                "than this (plus max_rate per second) from the last good "
+                                "one is a jump, skipped (a storey is 40 Pa)")
+        max_rate: float = param(30.0, unit="Pa/s", gt=0, description="fastest real change "
+                                "(2.5 m/s vertical)")
+        rejump_s: float = param(5.0, unit="s", gt=0, description="readings steady this "
+                                "long at a jumped level: the sensor's offset jumped; "
+                                "taken on with the offset moved by the jump (the height "
+                                "carries on from before it)")
         frames: Frames = param(Frames(), description="RawFrame inputs: the codec per "
                                "transport and its options")
 
@@ -156,7 +171,8 @@ class BarometerSensor(Sensor):
         self._last_t[r.device] = r.t
         if self.params.reference and r.device == self.params.reference:
             self._reference.add(r.t, r.pressure, r.temperature,
-                                max(self.params.reference_window, self.params.calibrate_s))
+                                max(self.params.reference_window, self.params.calibrate_s)
+                                + self.params.rejump_s)
             self.ctx.count("reference_readings")
             return
         agent = self.params.devices.get(r.device) or link_agent or (
@@ -169,6 +185,8 @@ class BarometerSensor(Sensor):
             return
         w = self._wearers[agent]
         w.device = r.device
+        if w.zeroing.done and not self._guarded(w, agent, r):
+            return
         if not w.zeroing.done:
             if not w.zeroing.add(r.t, r.pressure, self.params.calibrate_s):
                 self.ctx.count("zeroing_readings")
@@ -197,6 +215,32 @@ class BarometerSensor(Sensor):
             self._emit(agent, w, w.window.last_t)
         w.window.add(r.t, r.pressure)
 
+    def _guarded(self, w: _Wearer, agent: str, r: BaroReading) -> bool:
+        """Whether a zeroed wearer's reading is good (stuck and jumped ones are counted,
+        reported and skipped; a jump that stays moves the zeroing offset)."""
+        p = self.params
+        verdict = w.guard.check(r.t, r.pressure, GuardConfig(
+            stuck_readings=p.stuck_readings, max_step=p.max_step, max_rate=p.max_rate,
+            rejump_s=p.rejump_s))
+        if verdict == "ok":
+            return True
+        if verdict == "offset_jump":
+            if w.window.n:         # the readings before the jump, with the offset then
+                self._emit(agent, w, w.window.last_t)
+            w.zeroing.offset += w.guard.last_shift
+            self.ctx.count("offset_jumps")
+            self.ctx.report(r.t, "baro_offset_jump", f"{r.device}: readings steady "
+                            f"{w.guard.last_shift:+.0f} Pa from before for {p.rejump_s:g} s: "
+                            "the sensor's offset jumped, taken on with the zeroing moved by "
+                            "it", key=r.device, agent=agent)
+            return True
+        self.ctx.count(f"{verdict}_readings")
+        what = ("the same reading repeated: stuck sensor" if verdict == "stuck" else
+                f"a jump of {r.pressure - w.guard.last_p:+.0f} Pa from the last good reading")
+        self.ctx.report(r.t, f"baro_{verdict}", f"{r.device}: {what}; readings skipped",
+                        key=r.device, agent=agent)
+        return False
+
     def _emit(self, agent: str, w: _Wearer, t: float) -> None:
         p = self.params
         pressure = w.window.mean()
@@ -209,7 +253,7 @@ class BarometerSensor(Sensor):
         temperature = p.air_temperature
         if p.reference:
             ref = self._reference.at(t, p.reference_window)
-            if ref is None:  # cannot happen after zeroing with a reference; kept safe
+            if ref is None:  # no reference reading up to t (heard only after it): skipped
                 self.ctx.count("heights_without_reference")
                 return
             ref_p, age, ref_temp, ref_n = ref
