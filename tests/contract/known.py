@@ -9,10 +9,6 @@ from __future__ import annotations
 
 #: (kind, name) -> {check: why it fails}
 KNOWN: dict[tuple[str, str], dict[str, str]] = {
-    ("sensor", "rssi_breadcrumb"): {
-        "bad_input": "a reading older than its link's last one changes the output and is "
-                     "not counted",
-    },
     ("sensor", "rfid_reader"): {
         "reset_refeed": "tags a firefighter deployed are kept through reset(agent) (they "
                         "are on the doors), so the same deployment again is a duplicate: "
