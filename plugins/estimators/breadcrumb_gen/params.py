@@ -67,6 +67,13 @@ class Radio(Params):
                           "variance is inflated (§IV-F)")
     time_match: float = param(1.0, unit="s", gt=0, description="a radio event is tied to the "
                               "firefighter state nearest in time, at most this far")
+    mutual_correlation_s: float = param(30.0, unit="s", ge=0, description="links (ranges, "
+                                        "encounters) between the same two firefighters "
+                                        "within this time share one error (they walk and "
+                                        "drift together): each enters with its variance "
+                                        "times the number of such links in that time, and "
+                                        "none checks the graph's absolute position "
+                                        "(consistency); 0: independent")
 
 
 class RadioLearning(Params):
