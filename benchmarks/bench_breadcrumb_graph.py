@@ -66,8 +66,9 @@ from firenav_plugins.estimators.breadcrumb_gen.network import (  # noqa: E402
 #: with ENCOUNTER_SIGMA per axis instead of a range (whose direction is meaningless there).
 ENCOUNTER_M = 1.5
 ENCOUNTER_SIGMA = 0.75
-#: Heading states (``--heading-states``): the plugin's default priors and random walks,
-#: and the true heading error's drift rate per firefighter [rad/s] (one step = 1 s).
+#: Heading states (``--heading-states``): priors and random walks of a still-start
+#: calibrated INS (the plugin's defaults before the uncalibrated-IMU ones), and the true
+#: heading error's drift rate per firefighter [rad/s] (one step = 1 s).
 HEADING_PRIOR = np.diag([0.035, 0.009, 0.02]) ** 2
 HEADING_WALK = np.diag([1e-4, 1e-4, 1e-3]) ** 2
 DRIFT_RATE_SIGMA = 0.005
