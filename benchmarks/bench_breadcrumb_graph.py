@@ -33,13 +33,22 @@ At the end: the incremental estimates against the batch optimum of the same non-
 problem (ours, and GTSAM's LM), and on the graph without ranges (linear) the incremental
 estimates against the batch BLUE. BLAS runs single-threaded (small dense updates).
 
+Before/after in one run: ``--compare DIR`` times only ours (with and without heading
+states) in this checkout and in another one (e.g. a ``git worktree`` of an older commit),
+alternating, each in a fresh process, wall and CPU time (``time.thread_time``) per
+update: the CPU column is what the update costs, the wall column adds what the machine's
+other jobs took from it.
+
 Run: ``.venv/bin/python benchmarks/bench_breadcrumb_graph.py [--seed 0] [--quick]
-[--heading-states]``
+[--heading-states] [--compare DIR]``
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import subprocess
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -57,8 +66,9 @@ from firenav_plugins.estimators.breadcrumb_gen.network import (  # noqa: E402
 #: with ENCOUNTER_SIGMA per axis instead of a range (whose direction is meaningless there).
 ENCOUNTER_M = 1.5
 ENCOUNTER_SIGMA = 0.75
-#: Heading states (``--heading-states``): the plugin's default priors and random walks,
-#: and the true heading error's drift rate per firefighter [rad/s] (one step = 1 s).
+#: Heading states (``--heading-states``): priors and random walks of a still-start
+#: calibrated INS (the plugin's defaults before the uncalibrated-IMU ones), and the true
+#: heading error's drift rate per firefighter [rad/s] (one step = 1 s).
 HEADING_PRIOR = np.diag([0.035, 0.009, 0.02]) ** 2
 HEADING_WALK = np.diag([1e-4, 1e-4, 1e-3]) ** 2
 DRIFT_RATE_SIGMA = 0.005
@@ -187,15 +197,17 @@ def add_encounters_and_drop(gen: GeneralizedElectricalNetwork, up: Update) -> No
         gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
 
 
-def run_ours(updates: list[Update], linear_only: bool = False, heading_states: bool = False
-             ) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
+def run_ours(updates: list[Update], linear_only: bool = False, heading_states: bool = False,
+             cpu: np.ndarray | None = None) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
     """Our incremental GEN, one timed update per firefighter step (``linear_only``: the
-    ranges left out, so that the batch BLUE is exact without iterations)."""
+    ranges left out, so that the batch BLUE is exact without iterations); wall seconds
+    per update, and the CPU seconds into ``cpu`` when given."""
     gen = GeneralizedElectricalNetwork(3)
     gen.add_anchor("base", np.zeros(3))
     lat = np.zeros(len(updates))
     for k, up in enumerate(updates):
         t0 = time.perf_counter()
+        c0 = time.thread_time()
         new = add_odometry(gen, up, heading_states)
         with gen.batch():
             if up.ranges and not linear_only:
@@ -209,6 +221,8 @@ def run_ours(updates: list[Update], linear_only: bool = False, heading_states: b
         gen.estimates_of(changed)
         gen.covariances_of(changed)
         lat[k] = time.perf_counter() - t0
+        if cpu is not None:
+            cpu[k] = time.thread_time() - c0
     return gen, lat
 
 
@@ -365,6 +379,39 @@ def max_diff(a: dict, b: dict) -> float:
     return float(max(np.max(np.abs(np.asarray(a[k]) - np.asarray(b[k]))) for k in common))
 
 
+def time_ours(seed: int, steps: int, heading_states: bool) -> dict:
+    """Wall and CPU per update [ms] of ours on the graph of ``seed`` (for ``--compare``)."""
+    updates, _ = make_graph(seed, steps=steps)
+    cpu = np.zeros(len(updates))
+    gen, lat = run_ours(updates, heading_states=heading_states, cpu=cpu)
+    return {"wall": (1e3 * lat).tolist(), "cpu": (1e3 * cpu).tolist(),
+            "rebuilds": gen.solver.rebuilds}
+
+
+def ours_in_checkout(path: str, seed: int, steps: int, heading_states: bool) -> dict:
+    """:func:`time_ours` run by the GEN of the checkout at ``path``, in a fresh process."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    code = ("import json, sys; sys.path.insert(0, %r); import bench_breadcrumb_scaling as s; "
+            "s.use_checkout(%r); import bench_breadcrumb_graph as g; "
+            "print(json.dumps(g.time_ours(%d, %d, %r)))" % (here, path, seed, steps,
+                                                            heading_states))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=path)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def compare(other: str, seed: int, steps: int) -> None:
+    """Ours here and in checkout ``other``, alternating, wall and CPU per update."""
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    for heading in (False, True):
+        for name, path in (("before", other), ("this", here)):
+            r = ours_in_checkout(path, seed, steps, heading)
+            print(f"{name:6s} {'heading states' if heading else 'positions only':14s} "
+                  f"wall: {stats(np.array(r['wall']) / 1e3)} | CPU: "
+                  f"{stats(np.array(r['cpu']) / 1e3)} [{r['rebuilds']} refactorisations]",
+                  flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
@@ -373,8 +420,13 @@ def main() -> None:
                     help="time the sparse batch BLUE after every Nth update")
     ap.add_argument("--heading-states", action="store_true",
                     help="also time the graph with the plugin's heading states")
+    ap.add_argument("--compare", default="", help="only ours, here and in this checkout "
+                    "(before/after in one run)")
     args = ap.parse_args()
     steps = 20 if args.quick else 95
+    if args.compare:
+        compare(args.compare, args.seed, steps)
+        return
     updates, truth = make_graph(args.seed, steps=steps)
     n_nodes = 1 + len(updates) + sum(u.drop is not None for u in updates)
     n_edges = sum(1 + len(u.ranges) + len(u.encounters) + (u.drop is not None)

@@ -10,7 +10,11 @@ in the mission length gives the same median / p95 / max per update and a total t
 linear in the laps (time per step flat).
 
 One *update* is everything done while handling one odometry step (the new state and the
-radio events it releases, marginalisation, re-linearisation, the published poses).
+radio events it releases, marginalisation, re-linearisation, the published poses),
+timed in wall and in CPU time (``time.thread_time``: what the update costs, without what
+other jobs on the machine took from it). Each row also gives the seconds of data per
+second of wall and of CPU time (x real time) and the process's peak resident memory;
+``--agents 30 --laps 2`` is issue 21's 30-firefighter team.
 
 Before/after in one run: ``--compare DIR`` also times the plugin from another checkout
 (e.g. a ``git worktree`` of the commit before a change), alternating the two per mission
@@ -25,6 +29,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -101,21 +106,29 @@ def time_updates(agents: int, laps: int) -> dict:
     msgs = mission(agents, laps)
     comp, _, _ = make_component(BreadcrumbGenEstimator, {"base": {"position": BASE.tolist()}})
     comp.start()
-    lat, acc = [], 0.0
-    wall0 = time.perf_counter()
+    lat, cpu, acc, acc_cpu = [], [], 0.0, 0.0
+    wall0, cpu0 = time.perf_counter(), time.thread_time()
     for s, m in msgs:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         comp.handle(s, m)
         acc += time.perf_counter() - t0
+        acc_cpu += time.thread_time() - c0
         if s == "odo":
             lat.append(acc)
-            acc = 0.0
+            cpu.append(acc_cpu)
+            acc = acc_cpu = 0.0
     comp.finish()
-    total = time.perf_counter() - wall0
-    lat = np.array(lat)
+    total, total_cpu = time.perf_counter() - wall0, time.thread_time() - cpu0
+    span = msgs[-1][1].t - msgs[0][1].t
+    lat, cpu = np.array(lat), np.array(cpu)
     return {"steps": len(lat), "median_ms": 1e3 * float(np.median(lat)),
             "p95_ms": 1e3 * float(np.percentile(lat, 95)), "max_ms": 1e3 * float(lat.max()),
+            "cpu_median_ms": 1e3 * float(np.median(cpu)),
+            "cpu_p95_ms": 1e3 * float(np.percentile(cpu, 95)),
+            "cpu_max_ms": 1e3 * float(cpu.max()),
             "total_s": total, "per_step_ms": 1e3 * total / len(lat),
+            "realtime_wall": span / total, "realtime_cpu": span / total_cpu,
+            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
             "nodes": comp.gen.node_count}
 
 
@@ -155,9 +168,12 @@ def main() -> None:
             r = in_checkout(path, args.agents, laps)
             rows.append((name, laps, r))
             print(f"{name:6s} {args.agents} ff x {laps} laps: {r['steps']:5d} updates, "
-                  f"median {r['median_ms']:.2f} ms, p95 {r['p95_ms']:.2f} ms, max "
-                  f"{r['max_ms']:.1f} ms, total {r['total_s']:.2f} s = {r['per_step_ms']:.2f} "
-                  f"ms per step, {r['nodes']} live nodes", flush=True)
+                  f"wall median {r['median_ms']:.2f} / p95 {r['p95_ms']:.2f} / max "
+                  f"{r['max_ms']:.1f} ms, CPU median {r['cpu_median_ms']:.2f} / p95 "
+                  f"{r['cpu_p95_ms']:.2f} / max {r['cpu_max_ms']:.1f} ms; total "
+                  f"{r['total_s']:.2f} s = {r['per_step_ms']:.2f} ms per step; "
+                  f"{r['realtime_wall']:.1f}x real time (wall), {r['realtime_cpu']:.1f}x (CPU); "
+                  f"peak RSS {r['peak_rss_mb']:.0f} MB; {r['nodes']} live nodes", flush=True)
 
 
 if __name__ == "__main__":

@@ -85,3 +85,59 @@ def test_path_loss_model_is_learned_from_links_of_known_length():
     near = d < 1.6
     assert abs(np.median(np.log10(corr[near] / d[near]))) < 0.04
     assert np.median(np.log10(r_sensor[near] / d[near])) > 0.06
+
+
+def pair_walk(period: float = 2.0, steps: int = 60):
+    """Two firefighters walking east side by side from the base, 1 m a second, each with
+    its own odometry noise, an encounter between them every ``period`` seconds and no
+    other radio link."""
+    from firenav_framework import Odometry
+    rng = np.random.default_rng(5)
+    msgs = []
+    pos = {"ff1": np.array([0.5, 0.0, 0.0]), "ff2": np.array([0.5, 0.5, 0.0])}
+    for k in range(1, steps + 1):
+        t = 10.0 + k
+        for ff in ("ff1", "ff2"):
+            dm = np.array([1.0, 0.0, 0.0]) + rng.normal(0, 0.02, 3)
+            pos[ff] = pos[ff] + dm
+            msgs.append(("odo", Odometry(t=t, agent=ff, device=f"{ff}/ins", t_start=t - 1.0,
+                                         delta=dm, dheading=0.0,
+                                         cov=np.diag([4e-4] * 3 + [1e-4]),
+                                         position=pos[ff].copy(), heading=0.0)))
+        if k % int(period) == 0:
+            msgs.append(("enc", Range(t=t, agent="ff1", a="ff1", b="ff2", range_m=0.8,
+                                      sigma_m=1.0, method="rssi_encounter")))
+    return msgs
+
+
+def relative_variance(params: dict) -> tuple[float, float, dict]:
+    """(variance of x_ff1 - x_ff2 along x at the end [m^2], ff1's running normalised
+    innovation, counts) after the pair walk."""
+    from firenav_framework.testing import make_component
+    comp, _, stats = make_component(BreadcrumbGenEstimator, params)
+    comp.start()
+    for s, m in pair_walk():
+        comp.handle(s, m)
+    a, b = comp._agents["ff1"].states[-1].key, comp._agents["ff2"].states[-1].key
+    c = comp.gen.joint_covariance([a, b])
+    return float(c[0, 0] + c[3, 3] - 2 * c[0, 3]), comp._agents["ff1"].nis, \
+        stats.counts["under_test"]
+
+
+def test_repeated_links_between_two_firefighters_are_not_independent_evidence():
+    """Issue 15 (field fire floor): team A's two firefighters exchange encounters all the
+    time; counted as independent, 30 of them in a minute pin the pair together 30 times
+    over and agree with the graph wherever the pair has drifted. Within
+    ``radio.mutual_correlation_s`` they share one error: in steady contact they carry
+    about one link's information per window, and they never count as a check of the
+    graph (the running normalised innovation stays where it was)."""
+    shared, nis, counts = relative_variance({**PARAMS})
+    independent, nis_ind, _ = relative_variance(
+        {**PARAMS, "radio": {"mutual_correlation_s": 0.0}})
+    one_link = 1.0 ** 2                       # an encounter's sigma per axis, squared
+    assert independent < one_link / 5        # many independent links (through odometry)
+    assert shared > 3 * independent
+    assert shared > one_link / 4              # about one link's worth
+    assert counts["mutual_links_shared"] >= 25
+    assert nis == 1.0                         # untouched by mutual links
+    assert nis_ind == 1.0

@@ -503,3 +503,18 @@ def test_singular_system_is_reported():
     system = KirchhoffSystem(sp.csc_matrix((6, 6)), np.zeros(6), np.array([0, 1]), 3)
     with pytest.raises(SingularNetworkError, match="singular"):
         batch_blue(system)
+
+
+def test_trailing_factor_gives_the_covariance_of_the_dims_eliminated_last():
+    """The hot nodes' joint covariance read off the factor's trailing block (a rebuild's
+    re-activation without solves) equals the dense inverse; solves are in L's order."""
+    from firenav_plugins.estimators.breadcrumb_gen.batch import TrailingFactor
+    for gen, _ in build_random(4, 40, 10 ** 6, extra=3):
+        pass
+    system = gen.assemble()
+    dense = np.linalg.inv(system.L.toarray())
+    last = np.array([5, 6, 7, 30, 31, 32, 90, 91, 92, 3])
+    tf = TrailingFactor(system.L, last)
+    np.testing.assert_allclose(tf.covariance, dense[np.ix_(last, last)], atol=TOL, rtol=0)
+    np.testing.assert_allclose(tf.schur @ tf.covariance, np.eye(len(last)), atol=1e-8)
+    np.testing.assert_allclose(tf.solve(system.b), dense @ system.b, atol=TOL, rtol=0)

@@ -105,8 +105,35 @@ def test_kicked_breadcrumb_is_detected_from_its_fixed_links():
 
 
 def test_conforms_to_the_plugin_contract():
+    # two readings of one link, so the contract's out-of-time-order case applies too
     check_plugin(RssiBreadcrumbSensor, P, sample_input=[drop(0.0, "bc1"),
-                                                        reading(1.0, "bc1", "ff1", -45.0)])
+                                                        reading(1.0, "bc1", "ff1", -45.0),
+                                                        reading(2.0, "bc1", "ff1", -38.0),
+                                                        reading(3.0, "bc1", "ff1", -50.0)])
+
+
+def test_a_reading_older_than_its_links_last_is_counted_dropped_and_warned_once():
+    """Issue 13's finding: a late reading moved the encounter peak and nothing said so.
+    An older reading of the same link (either direction) is dropped and counted; other
+    links' readings at that time are unaffected."""
+    clean = [drop(0.0, "bc1"), drop(0.0, "bc2")] + [
+        reading(float(t), "bc1", "ff1", r) for t, r in
+        [(1, -50.0), (2, -44.0), (3, -38.0), (4, -42.0), (5, -55.0)]]
+    late = [*clean[:5], reading(2.5, "ff1", "bc1", -30.0),     # older than t=3: dropped
+            reading(2.5, "bc2", "ff1", -60.0),                  # another link: kept
+            *clean[5:], reading(4.5, "bc1", "ff1", -36.0)]      # older than t=5: dropped
+    want = run_component(RssiBreadcrumbSensor, P, clean)
+    comp, rec, stats = make_component(RssiBreadcrumbSensor, P)
+    comp.start()
+    for s, m in late:
+        comp.handle(s, m)
+    comp.finish()
+    assert stats.counts["under_test"]["out_of_order"] == 2
+    enc, = rec.on("encounters")
+    assert enc.t == 3.0 and enc.range_m == pytest.approx(want.on("encounters")[0].range_m)
+    assert [r.t for r in rec.on("range")] == [1.0, 2.0, 3.0, 2.5, 4.0, 5.0]
+    warn = [d for d in rec.on("diagnostics") if d.code == "rssi_out_of_order"]
+    assert len(warn) == 1 and "bc1-ff1" in warn[0].text and warn[0].level == "warning"
 
 
 def test_silent_breadcrumbs_are_reported_once_duds_and_dead_apart():

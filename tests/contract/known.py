@@ -9,10 +9,6 @@ from __future__ import annotations
 
 #: (kind, name) -> {check: why it fails}
 KNOWN: dict[tuple[str, str], dict[str, str]] = {
-    ("sensor", "rssi_breadcrumb"): {
-        "bad_input": "a reading older than its link's last one changes the output and is "
-                     "not counted",
-    },
 }
 
 #: Failures the bundled sample does not provoke but a plugin's own test sample does

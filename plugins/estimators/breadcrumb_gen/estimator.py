@@ -93,6 +93,7 @@ class _Agent:
     heading_var: float = 0.0        # summed INS heading variance (without heading states)
     pending: list = field(default_factory=list)          # radio/drop events waiting for a state
     last_range: dict = field(default_factory=dict)       # node -> t of the last range used
+    mutual: dict = field(default_factory=dict)   # other firefighter -> deque of link times
     nis: float = 1.0          # running normalised innovation of its radio links [-]
     widen: float = 0.0        # extra horizontal variance after a contradiction [m^2]
     contradicted: bool = False          # since the last contradiction, no consistent link
@@ -371,10 +372,12 @@ class BreadcrumbGenEstimator(Estimator):
             r, sigma = self._radio_model.correct(msg.range_m, msg.sigma_m)
             msg = replace(msg, range_m=r, sigma_m=sigma) if msg.method == "rssi" \
                 else replace(msg, range_m=r)
-        if msg.method == "rssi_encounter":
-            self._encounter(msg, agent, a, b)
-            return
         other = msg.b if msg.a == agent else msg.a
+        mutual = other in self._agents
+        if msg.method == "rssi_encounter":
+            self._encounter(msg, agent, a, b, self._mutual_share(st, other, msg.t, mutual),
+                            mutual)
+            return
         if msg.t - st.last_range.get(other, -math.inf) < p.radio.period:
             self.ctx.count("range_thinned")
             return
@@ -382,7 +385,24 @@ class BreadcrumbGenEstimator(Estimator):
             self.ctx.count("range_too_long")
             return
         st.last_range[other] = msg.t
-        self._range(msg, agent, a, b)
+        self._range(msg, agent, a, b, self._mutual_share(st, other, msg.t, mutual), mutual)
+
+    def _mutual_share(self, st: _Agent, other: str, t: float, mutual: bool) -> float:
+        """The factor a link's variance enters with: 1 for a link to a fixed node; for a
+        link between two firefighters, the number of their links within
+        ``radio.mutual_correlation_s`` (this one included). Two firefighters walking
+        together drift together: their repeated ranges and encounters share one error,
+        so together they carry the information of one link, not of many."""
+        window = self.params.radio.mutual_correlation_s
+        if not mutual or window <= 0:
+            return 1.0
+        times = st.mutual.setdefault(other, deque())
+        while times and t - times[0] > window:
+            times.popleft()
+        times.append(t)
+        if len(times) > 1:
+            self.ctx.count("mutual_links_shared")
+        return float(len(times))
 
     def _learn(self, msg: Range, agent: str, a, b) -> None:
         """A link of known length for the path-loss model (radio_model.py): the base station
@@ -414,15 +434,17 @@ class BreadcrumbGenEstimator(Estimator):
                               f"{-c * 10:+.1f} x its exponent dB; spread "
                               f"{self._radio_model.residual_sigma:.2f} decades)", agent=agent)
 
-    def _encounter(self, msg: Range, agent: str, a, b) -> None:
+    def _encounter(self, msg: Range, agent: str, a, b, share: float = 1.0,
+                   mutual: bool = False) -> None:
         (na, ha, va), (nb, hb, vb) = a, b
         var = msg.sigma_m ** 2
         if self._radio_model is not None and self._radio_model.ready:
             # the learned model says how far apart the nodes were at the peak
             var = max(var, max(msg.range_m ** 2 - (ha - hb) ** 2, 0.0) / 2.0)
-        var += va + vb
+        var = (var + va + vb) * share
         cov = np.diag([var, var, 0.3 ** 2])
-        cov = self._judged_position(agent, msg.t, na, nb, np.zeros(3), cov, "encounter")
+        cov = self._judged_position(agent, msg.t, na, nb, np.zeros(3), cov, "encounter",
+                                    absolute=not mutual)
         if cov is None:
             return
         self.gen.add_relative_position(na, nb, np.zeros(3), cov)
@@ -430,16 +452,19 @@ class BreadcrumbGenEstimator(Estimator):
         self._touched.update((na, nb))
 
     def _judged_position(self, agent: str, t: float, na: str, nb: str, zeta: np.ndarray,
-                         cov: np.ndarray, what: str) -> np.ndarray | None:
+                         cov: np.ndarray, what: str, absolute: bool = True
+                         ) -> np.ndarray | None:
         """The covariance a relative position ``zeta`` = x_a - x_b enters with, after
-        judging its innovation against the graph (§IV-F, :meth:`_judge`); None: dropped."""
+        judging its innovation against the graph (§IV-F, :meth:`_judge`); None: dropped.
+        ``absolute`` False: a link between two firefighters, which checks only where
+        they are relative to each other (see :meth:`_judge`)."""
         x = self.gen.estimates_of([na, nb])
         joint = self._relative_cov(na, nb)
         innov = zeta - (x[0] - x[1])
         S = joint[:2, :2] + cov[:2, :2]
         m2 = float(innov[:2] @ np.linalg.solve(S, innov[:2]))
         scale = self._judge(agent, t, math.sqrt(m2 / 2.0), m2 / 2.0,
-                            float(np.hypot(innov[0], innov[1])), x[0], what)
+                            float(np.hypot(innov[0], innov[1])), x[0], what, absolute)
         if scale is None:
             return None
         out = cov.copy()
@@ -447,7 +472,7 @@ class BreadcrumbGenEstimator(Estimator):
         return out
 
     def _judge(self, agent: str, t: float, z: float, nis: float, miss: float,
-               where: np.ndarray, what: str) -> float | None:
+               where: np.ndarray, what: str, absolute: bool = True) -> float | None:
         """Judge a radio link whose innovation is ``z`` sigmas (``nis``: its squared
         normalised innovation per degree of freedom, ``miss`` [m] its size) and return
         the factor its variance enters with.
@@ -459,13 +484,18 @@ class BreadcrumbGenEstimator(Estimator):
         link confirms the graph (within ``weaken``: gone; within ``gate``: shrunk by
         ``consistency.widen_decay``). Without ``consistency.enabled`` (the paper) it is
         dropped (None).
+
+        A link between two firefighters (``absolute`` False) agrees with the graph
+        wherever the pair has drifted together, so it neither enters the running
+        normalised innovation nor confirms the graph after a contradiction; it is still
+        weakened, down-weighted and said as above.
         """
         p = self.params
         st = self._agents.get(agent) if p.consistency.enabled else None
-        if st is not None:
+        if st is not None and absolute:
             st.nis += (min(nis, 25.0) - st.nis) / p.consistency.memory
         if z <= p.radio.gate:                   # consistent with the graph
-            if st is not None:
+            if st is not None and absolute:
                 st.contradicted = False
                 st.widen = 0.0 if z <= p.radio.weaken else st.widen * p.consistency.widen_decay
             if z <= p.radio.weaken:
@@ -499,11 +529,13 @@ class BreadcrumbGenEstimator(Estimator):
             return C
         return C[:3, :3] + C[3:, 3:] - C[:3, 3:] - C[3:, :3]
 
-    def _range(self, msg: Range, agent: str, a, b) -> None:
+    def _range(self, msg: Range, agent: str, a, b, share: float = 1.0,
+               mutual: bool = False) -> None:
         p = self.params
         (na, ha, va), (nb, hb, vb) = a, b
+        absolute = not mutual
         off = np.array([0.0, 0.0, ha - hb])
-        var = msg.sigma_m ** 2 + va + vb
+        var = (msg.sigma_m ** 2 + va + vb) * share
         x = self.gen.estimates_of([na, nb])
         diff = x[0] - x[1] + off
         pred = float(np.linalg.norm(diff))
@@ -514,7 +546,7 @@ class BreadcrumbGenEstimator(Estimator):
             horiz = max(msg.range_m ** 2 - (ha - hb) ** 2, 0.0)
             v = horiz / 2.0 + var
             cov = self._judged_position(agent, msg.t, na, nb, np.zeros(3),
-                                        np.diag([v, v, 0.3 ** 2]), "range")
+                                        np.diag([v, v, 0.3 ** 2]), "range", absolute)
             if cov is None:
                 return
             self.gen.add_relative_position(na, nb, np.zeros(3), cov)
@@ -525,7 +557,7 @@ class BreadcrumbGenEstimator(Estimator):
         innov = msg.range_m - pred
         S = float(h @ rel @ h) + var
         z = abs(innov) / math.sqrt(S)
-        scale = self._judge(agent, msg.t, z, z * z, abs(innov), x[0], "range")
+        scale = self._judge(agent, msg.t, z, z * z, abs(innov), x[0], "range", absolute)
         if scale is None:
             return
         self.gen.add_range(na, nb, msg.range_m, var * scale, offset=off)

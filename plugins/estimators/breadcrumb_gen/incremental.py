@@ -37,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .batch import factorize
+from .batch import TrailingFactor, factorize
 
 
 class IncrementalBlue:
@@ -47,7 +47,7 @@ class IncrementalBlue:
         self.d = dim
         self.max_active_dims = max_active_dims
         # factor of the last rebuild
-        self._lu: spla.SuperLU | None = None
+        self._lu: spla.SuperLU | TrailingFactor | None = None
         self._xf = np.zeros(0)
         self._fblock = np.zeros(0, np.int64)     # node id -> block index in the factor, -1 if not
         # active set: slot k holds dims [k d, (k + 1) d) of Sigma and x
@@ -136,15 +136,13 @@ class IncrementalBlue:
             return
         d = self.d
         fdims = (self._fblock[np.asarray(todo)][:, None] * d + np.arange(d)).ravel()
-        rhs = np.zeros((len(self._xf), len(fdims)))
-        rhs[fdims, np.arange(len(fdims))] = 1.0
-        cols = self._lu.solve(rhs)                       # Sigma_f[:, new]
         k = len(fdims)
         old_dims = self._dims([self._slot_node[s] for s in self._old_slots]) \
             if self._old_slots else np.zeros(0, np.int64)
         old_fdims = self._old_fdims()
-        g = cols[old_fdims]                              # Sigma_f[O, new]
-        gjj = cols[fdims]
+        cols = self._columns(fdims, np.concatenate([old_fdims, fdims]))
+        g = cols[:len(old_fdims)]                        # Sigma_f[O, new]
+        gjj = cols[len(old_fdims):]
         w = self._hinv @ g                               # (t_old, k)
         s = gjj - g.T @ w
         s = 0.5 * (s + s.T)
@@ -173,6 +171,14 @@ class IncrementalBlue:
         self._xf_old = np.concatenate([self._xf_old, self._xf[fdims]])
         self._old_slots.extend(int(self._slot[n]) for n in todo)
         self.activated += len(todo)
+
+    def _columns(self, dims: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """``Sigma_f[rows, dims]`` from the factor (unit right-hand sides)."""
+        if isinstance(self._lu, TrailingFactor):
+            return self._lu.columns(dims, rows)
+        rhs = np.zeros((len(self._xf), len(dims)))
+        rhs[dims, np.arange(len(dims))] = 1.0
+        return self._lu.solve(rhs)[rows]
 
     def _old_fdims(self) -> np.ndarray:
         if not self._old_slots:
@@ -303,18 +309,14 @@ class IncrementalBlue:
         """Factorise a freshly assembled Kirchhoff system and reset the active set.
 
         ``nodes`` lists the node ids of the blocks of ``L`` in order; ``hot`` nodes are
-        re-activated at once (one multi-column solve) because the next changes will
-        touch them.
+        re-activated at once because the next changes will touch them: they are
+        eliminated last, so their joint covariance is the inverse of the factor's
+        trailing block (:class:`~.batch.TrailingFactor`), with no solves.
         """
         nodes = np.asarray(nodes, np.int64)
         self._grow_ids(int(nodes.max(initial=-1)) + 1)
         self._fblock[:] = -1
         self._fblock[nodes] = np.arange(len(nodes))
-        if len(nodes):
-            self._lu = factorize(L)
-            self._xf = self._lu.solve(np.asarray(b, float))
-        else:
-            self._lu, self._xf = None, np.zeros(0)
         self._slot[:] = -1
         self._slot_node = []
         self._hidden = set()
@@ -322,6 +324,21 @@ class IncrementalBlue:
         self._hinv = np.zeros((0, 0))
         self._xf_old = np.zeros(0)
         self.rebuilds += 1
-        hot = [h for h in hot if self._fblock[h] >= 0]
-        if hot:
-            self.activate(hot)
+        hot = list(dict.fromkeys(h for h in hot if self._fblock[h] >= 0))
+        if not len(nodes):
+            self._lu, self._xf = None, np.zeros(0)
+            return
+        if not hot:
+            self._lu = factorize(L)
+            self._xf = self._lu.solve(np.asarray(b, float))
+            return
+        hdims = (self._fblock[np.asarray(hot)][:, None] * self.d + np.arange(self.d)).ravel()
+        self._lu = TrailingFactor(L, hdims)
+        self._xf = self._lu.solve(np.asarray(b, float))
+        new = self._new_slots(hot)
+        self._sig[np.ix_(new, new)] = self._lu.covariance
+        self._x[new] = self._xf[hdims]
+        self._hinv = self._lu.schur.copy()
+        self._xf_old = self._xf[hdims].copy()
+        self._old_slots = [int(self._slot[n]) for n in hot]
+        self.activated += len(hot)

@@ -67,6 +67,13 @@ class Radio(Params):
                           "variance is inflated (§IV-F)")
     time_match: float = param(1.0, unit="s", gt=0, description="a radio event is tied to the "
                               "firefighter state nearest in time, at most this far")
+    mutual_correlation_s: float = param(30.0, unit="s", ge=0, description="links (ranges, "
+                                        "encounters) between the same two firefighters "
+                                        "within this time share one error (they walk and "
+                                        "drift together): each enters with its variance "
+                                        "times the number of such links in that time, and "
+                                        "none checks the graph's absolute position "
+                                        "(consistency); 0: independent")
 
 
 class RadioLearning(Params):
@@ -130,9 +137,10 @@ class HeadingStates(Params):
 
     enabled: bool = param(True, description="estimate them in the graph (false: the paper's "
                           "position-only GEN)")
-    rate_sigma: AngularRate = param(0.009, unit="rad/s", gt=0, description="residual gyro bias "
-                                    "about z at the start (after the INS's still alignment)")
-    rate_walk: float = param(1e-4, unit="rad/s/sqrt(s)", ge=0, description="random walk of "
+    rate_sigma: AngularRate = param(0.03, unit="rad/s", gt=0, description="residual gyro bias "
+                                    "about z at the start (an uncalibrated consumer IMU "
+                                    "without a still start: about 1.7 deg/s)")
+    rate_walk: float = param(3e-4, unit="rad/s/sqrt(s)", ge=0, description="random walk of "
                              "that bias (warm-up drift, bias instability)")
     turn_scale_sigma: float = param(0.02, gt=0, description="gyro scale-factor error: heading "
                                     "error per radian the INS turned")

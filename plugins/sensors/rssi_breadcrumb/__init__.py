@@ -29,6 +29,9 @@ Impossible readings are counted and skipped, never passed on: RSSI above
 ``max_rssi_dbm`` (0 dBm: no receiver reads more than a transmitter sends at 2.4 GHz
 short range) or below ``min_rssi_dbm``, non-finite values, a node hearing itself,
 unknown node ids and breadcrumbs that have not been dropped yet (still in the dispenser).
+A reading older than its link's last one (out of time order) is dropped, counted as
+``out_of_order`` and warned once per link: the encounter peaks and kick medians follow
+each link forward in time.
 """
 from .path_loss import range_sigma, rssi_to_range
 from .sensor import RssiBreadcrumbSensor

@@ -54,6 +54,7 @@ class RssiBreadcrumbSensor(Sensor):
         self._encounters = EncounterDetector(p.encounter)
         self._kicks = KickDetector(p.kick, p.base_stations)
         self._heard: dict[str, float] = {}      # breadcrumb -> t it was last heard [s]
+        self._link_t: dict[tuple[str, str], float] = {}   # node pair -> its last reading [s]
         self._silent: set[str] = set()          # breadcrumbs reported silent
         self._checked = -math.inf
 
@@ -77,12 +78,23 @@ class RssiBreadcrumbSensor(Sensor):
         if problem:
             self.ctx.count(problem)
             return
+        pair = tuple(sorted((msg.tx, msg.rx)))
+        last = self._link_t.get(pair)
+        if last is not None and msg.t < last:
+            # encounter peaks and kick medians follow each link forward in time: an older
+            # reading cannot join them
+            self.ctx.count("out_of_order")
+            self.ctx.warn_once(msg.t, "rssi_out_of_order", f"RSSI reading {pair[0]}-{pair[1]} "
+                               f"at t={msg.t:.3f} s is older than the link's last "
+                               f"({last:.3f} s): dropped (counted as out_of_order)",
+                               key="-".join(pair))
+            return
+        self._link_t[pair] = msg.t
         for node in (msg.tx, msg.rx):
             self._heard[node] = msg.t
             self._silent.discard(node)
         self._check_silent(msg.t)
         d = rssi_to_range(rssi, p.rssi_1m_dbm, p.path_loss_exponent)
-        pair = tuple(sorted((msg.tx, msg.rx)))
         if msg.tx in self._fixed and msg.rx in self._fixed:
             for node, t0, links in self._kicks.reading(pair, msg.t, rssi):
                 self._moved(node, t0, links)
