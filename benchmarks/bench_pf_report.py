@@ -4,7 +4,7 @@
     .venv/bin/python benchmarks/bench_pf_report.py field_crawl_search --seeds 1000-1019 \\
         --out out/pf-report
 
-Per scenario it runs two ``firenav evaluate`` commands (``--workers 1``; a JSON that is
+Per scenario it runs two ``firenav evaluate`` commands (``--workers N``, default 1; a JSON that is
 already in ``--out`` is read instead of re-run, so a row can be re-printed):
 
 * firenav's pipeline with the INS alone as baseline (``pipelines/ins-baseline.yaml``: the
@@ -38,11 +38,12 @@ PAPER_SCENARIOS = ("search_flat_right", "search_flat_left", "search_area250")
 RUN_GOAL = 0.02
 
 
-def evaluate(pipeline: Path, scenario: str, seeds: str, out: Path, *extra: str) -> dict:
+def evaluate(pipeline: Path, scenario: str, seeds: str, out: Path, *extra: str,
+             workers: int = 1) -> dict:
     """``firenav evaluate`` once (or its JSON from an earlier call)."""
     if not out.is_file():
         cmd = [str(REPO / ".venv" / "bin" / "firenav"), "evaluate", str(pipeline),
-               "--scenario", scenario, "--seeds", seeds, "--workers", "1", "--json", str(out),
+               "--scenario", scenario, "--seeds", seeds, "--workers", str(workers), "--json", str(out),
                *extra]
         print("$", " ".join(cmd), file=sys.stderr)
         subprocess.run(cmd, check=True, cwd=REPO, stdout=subprocess.DEVNULL)
@@ -99,16 +100,19 @@ def main(argv=None) -> int:
     ap.add_argument("scenario")
     ap.add_argument("--seeds", default="1000-1019")
     ap.add_argument("--out", type=Path, default=REPO / "out" / "pf-report")
+    ap.add_argument("--workers", type=int, default=1, help="Dask workers per evaluation "
+                    "(the figures do not depend on it)")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     paper_case = a.scenario in PAPER_SCENARIOS
     ours = PIPES / ("search-pattern-pf.yaml" if paper_case else "search-pattern-pf-field.yaml")
     tag = f"{a.scenario}_{a.seeds}"
     pf = evaluate(ours, a.scenario, a.seeds, a.out / f"{tag}_firenav.json",
-                  "--baseline", str(PIPES / "ins-baseline.yaml"))
+                  "--baseline", str(PIPES / "ins-baseline.yaml"), workers=a.workers)
     pub = evaluate(PIPES / "search-pattern-pf-as-published.yaml", a.scenario, a.seeds,
                    a.out / f"{tag}_published.json",
-                   *([] if paper_case else ["--set", "estimators.pf.start.mode=truth"]))
+                   *([] if paper_case else ["--set", "estimators.pf.start.mode=truth"]),
+                   workers=a.workers)
     ins = pf["baseline"]
     print(f"{a.scenario}, seeds {a.seeds}, {len(pf['per_run'])} runs "
           f"({'unknown' if paper_case else 'known'} start for the filters; INS alone from the true start)")
