@@ -109,9 +109,9 @@ PIPELINE = """
 name: load
 timeline: {{reorder_window: {window}, late: deliver}}
 sources:
-  - {{id: mav, plugin: mavlink, url: "udpin:127.0.0.1:{pm}", heartbeat_s: 0, record_dir: {rec},
+  - {{id: mav, plugin: mavlink, url: "udpin:127.0.0.1:{pm}", heartbeat_s: 0, record_dir: raw,
      rotate_mb: {rotate}}}
-  - {{id: lines, plugin: udp_lines, bind: "127.0.0.1:{pl}", record_dir: {rec}}}
+  - {{id: lines, plugin: udp_lines, bind: "127.0.0.1:{pl}", record_dir: raw}}
 """ + PROCESSING
 #: The same processing on the recorded MAVLink log (as ``firenav replay`` swaps the sources).
 REPLAY = """
@@ -140,7 +140,7 @@ def replay(rec: Path, n: int, block: float, window: float, workers: int) -> dict
     from firenav_framework.cli.replay import first_log
     from firenav_framework.pipeline import load_pipeline_text
     from firenav_framework.runner import Runner
-    spec = load_pipeline_text(REPLAY.format(window=window, log=first_log(rec / "mav"),
+    spec = load_pipeline_text(REPLAY.format(window=window, log=first_log(rec / "raw" / "mav"),
                                             block=block, agents=agent_map(n)))
     return Runner(spec, workers=workers).run().tracks.get("ins.pose", {})
 
@@ -188,7 +188,7 @@ def run(window: float, block: float, n: int, seconds: float, profile: bool,
     rec = Path(tempfile.mkdtemp(prefix="fieldkit-load-"))
     pm, pl = free_port(), free_port()
     agents = agent_map(n)
-    spec = load_pipeline_text(PIPELINE.format(window=window, pm=pm, pl=pl, rec=rec,
+    spec = load_pipeline_text(PIPELINE.format(window=window, pm=pm, pl=pl,
                                               block=block, agents=agents, rotate=rotate_mb))
     m: dict = {"t0": None, "offset": {}, "block": {}, "pose_lat": [], "pose_lat_oldest": [],
                "bus_lat": [], "bus_at": [], "pose_at": [], "stopping": False,
