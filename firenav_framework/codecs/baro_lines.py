@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 from ..messages import RawFrame
 from .base import Codec, EncodedFrame, FrameError
-from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
+from .checked_lines import NAME, CheckedLineOptions, decode_line, encode_fields
 
 __all__ = ["BaroReading", "BaroLinesCodec", "PRESSURE_RANGE_PA", "ZERO_CELSIUS_K"]
 
@@ -50,12 +50,10 @@ class BaroLinesCodec(Codec):
     Options = CheckedLineOptions
 
     def decode(self, frame: RawFrame) -> list[BaroReading] | None:
-        parts = decode_fields(frame.data, ("BARO",))
-        if parts is None:
+        line = decode_line(frame.data, {"BARO": (3, 4)})
+        if line is None:
             return None
-        text = ",".join(parts)
-        if len(parts) not in (3, 4):
-            raise FrameError("bad_frames", f"BARO line has {len(parts)} fields: {text!r}")
+        parts, text = line
         device = parts[1]
         if not NAME.match(device):
             raise FrameError("bad_frames", f"bad barometer id: {text!r}")

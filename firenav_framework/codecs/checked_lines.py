@@ -8,13 +8,15 @@ before the ``*``. This module frames and checks such lines; each codec
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from functools import reduce
 from operator import xor
 
 from ..contract.params import param
 from .base import Codec, FrameError
 
-__all__ = ["NAME", "CheckedLineOptions", "checksum", "encode_fields", "decode_fields"]
+__all__ = ["NAME", "CheckedLineOptions", "checksum", "encode_fields", "decode_fields",
+           "decode_line"]
 
 #: A device, reader, tag or anchor name: no commas, spaces or checksum markers.
 NAME = re.compile(r"^[A-Za-z0-9_.:/-]+$")
@@ -59,3 +61,21 @@ def decode_fields(data: bytes, kinds: tuple[str, ...]) -> list[str] | None:
             raise FrameError("checksum_errors", f"checksum mismatch: {text!r}")
         text = body
     return text.split(",")
+
+
+def decode_line(data: bytes, field_counts: Mapping[str, tuple[int, ...]]
+                ) -> tuple[list[str], str] | None:
+    """(fields, the line's text without checksum) of a line whose first field is a kind
+    of ``field_counts`` (kind -> the numbers of fields, kind included, a line of it may
+    have); None for other lines. As :func:`decode_fields`, and a line with another
+    number of fields raises :class:`FrameError` ``bad_frames``.
+    """
+    parts = decode_fields(data, tuple(field_counts))
+    if parts is None:
+        return None
+    text = ",".join(parts)
+    if len(parts) not in field_counts[parts[0]]:
+        allowed = " or ".join(str(n) for n in field_counts[parts[0]])
+        raise FrameError("bad_frames", f"{parts[0]} line has {len(parts)} fields, not "
+                         f"{allowed}: {text!r}")
+    return parts, text

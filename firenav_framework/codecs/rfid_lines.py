@@ -14,7 +14,7 @@ from typing import Literal, NamedTuple
 
 from ..messages import RawFrame
 from .base import Codec, EncodedFrame, FrameError
-from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
+from .checked_lines import NAME, CheckedLineOptions, decode_line, encode_fields
 
 __all__ = ["RfidEvent", "RfidLinesCodec"]
 
@@ -48,13 +48,11 @@ class RfidLinesCodec(Codec):
     Options = CheckedLineOptions
 
     def decode(self, frame: RawFrame) -> list[RfidEvent] | None:
-        parts = decode_fields(frame.data, ("TAG", "DEPLOY"))
-        if parts is None:
+        line = decode_line(frame.data, {"TAG": (4, 5), "DEPLOY": (3,)})
+        if line is None:
             return None
-        text = ",".join(parts)
+        parts, text = line
         kind = parts[0]
-        if kind == "DEPLOY" and len(parts) != 3 or kind == "TAG" and len(parts) not in (4, 5):
-            raise FrameError("bad_frames", f"{kind} line has {len(parts)} fields: {text!r}")
         reader, tag_id = parts[1], parts[2]
         if not (NAME.match(reader) and NAME.match(tag_id)):
             raise FrameError("bad_frames", f"bad reader or tag id: {text!r}")

@@ -9,7 +9,7 @@ from collections.abc import Iterable
 
 from ..messages import RawFrame
 from .base import Codec, EncodedFrame, FrameError
-from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
+from .checked_lines import NAME, CheckedLineOptions, decode_line, encode_fields
 from .twr_report import TwrReport
 
 __all__ = ["UwbLinesCodec"]
@@ -33,13 +33,10 @@ class UwbLinesCodec(Codec):
     Options = CheckedLineOptions
 
     def decode(self, frame: RawFrame) -> list[TwrReport] | None:
-        parts = decode_fields(frame.data, ("RANGE",))
-        if parts is None:
+        line = decode_line(frame.data, {"RANGE": (6, 7)})
+        if line is None:
             return None
-        text = ",".join(parts)
-        if len(parts) not in (6, 7):
-            raise FrameError("bad_frames", f"UWB line needs 6 or 7 fields, got {len(parts)}: "
-                             f"{text!r}")
+        parts, text = line
         _, tag, anchor, mm, rx, fp, *rest = parts
         if not (NAME.match(tag) and NAME.match(anchor)):
             raise FrameError("bad_frames", f"UWB line has a bad tag or anchor id: {text!r}")
