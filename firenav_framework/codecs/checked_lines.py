@@ -3,20 +3,24 @@
 The RFID reader and the UWB ranging tag both speak this dialect over serial or UDP:
 ``KIND,field,field,...*HH`` where ``HH`` (hex, optional) is the XOR of every byte
 before the ``*``. This module frames and checks such lines; each codec
-(``uwb_lines``, ``rfid_lines``) parses its own fields.
+(``uwb_lines``, ``rfid_lines``, ``baro_lines``, all :class:`CheckedLinesCodec`) parses
+its own fields.
 """
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from abc import abstractmethod
+from collections.abc import Iterable, Mapping
 from functools import reduce
 from operator import xor
+from typing import Any, ClassVar
 
 from ..contract.params import param
-from .base import Codec, FrameError
+from ..messages import RawFrame
+from .base import Codec, EncodedFrame, FrameError
 
-__all__ = ["NAME", "CheckedLineOptions", "checksum", "encode_fields", "decode_fields",
-           "decode_line"]
+__all__ = ["NAME", "CheckedLineOptions", "CheckedLinesCodec", "checksum", "encode_fields",
+           "decode_fields", "decode_line"]
 
 #: A device, reader, tag or anchor name: no commas, spaces or checksum markers.
 NAME = re.compile(r"^[A-Za-z0-9_.:/-]+$")
@@ -79,3 +83,41 @@ def decode_line(data: bytes, field_counts: Mapping[str, tuple[int, ...]]
         raise FrameError("bad_frames", f"{parts[0]} line has {len(parts)} fields, not "
                          f"{allowed}: {text!r}")
     return parts, text
+
+
+class CheckedLinesCodec(Codec):
+    """A codec of checked lines, one record a line: ``KIND,field,...[*HH]``.
+
+    A subclass gives :attr:`field_counts` (its kinds -> the numbers of fields a line of
+    each may have, kind included), :meth:`parse` (a line's fields -> its record) and
+    :meth:`line_fields` (a record -> its line's fields). Decoding: lines of other kinds
+    are not ours (None); a wrong checksum raises :class:`FrameError`
+    ``checksum_errors``, a wrong number of fields ``bad_frames``. Encoding: one line per
+    record (no terminator), with the checksum when the ``checksum`` option says so.
+    """
+
+    transport = "lines"
+    Options = CheckedLineOptions
+    field_counts: ClassVar[Mapping[str, tuple[int, ...]]] = {}
+
+    def decode(self, frame: RawFrame) -> list[Any] | None:
+        line = decode_line(frame.data, self.field_counts)
+        if line is None:
+            return None
+        parts, text = line
+        return [self.parse(frame.t, parts, text)]
+
+    def encode(self, records: Iterable[Any], *, address: str = "") -> list[EncodedFrame]:
+        return [EncodedFrame(r.t, "", encode_fields(self.line_fields(r), self.options.checksum))
+                for r in records]
+
+    @abstractmethod
+    def parse(self, t: float, parts: list[str], text: str) -> Any:
+        """The record of a line received at ``t`` [s] whose fields are ``parts`` (the
+        number checked) and whose text is ``text`` (for errors); raises
+        :class:`FrameError` ``bad_frames`` for a field that does not parse or is out of
+        range."""
+
+    @abstractmethod
+    def line_fields(self, record: Any) -> list[str]:
+        """The fields of the line of ``record``, kind first."""
