@@ -75,17 +75,18 @@ class DbcCodec(Codec):
     """A CAN codec whose layout a DBC file owns (ids, scales, ranges).
 
     The ``dbc`` option names the file, relative to the pipeline file; by default the
-    codec's shipped layout :attr:`shipped` (in ``codecs/dbc/``). It is loaded and checked
-    against :attr:`needs` once, when the codec is made (a wrong file fails then, naming
-    it and pointing to the format page :attr:`doc`), as the cantools database :attr:`db`.
+    codec's shipped layout :attr:`dbc_shipped` (in ``codecs/dbc/``). It is loaded and
+    checked against :attr:`dbc_needs` once, when the codec is made (a wrong file fails
+    then, naming it and pointing to the format page :attr:`dbc_doc`), as the cantools
+    database :attr:`db`.
     """
 
     #: file name of the shipped layout in ``codecs/dbc/``
-    shipped: ClassVar[str] = ""
+    dbc_shipped: ClassVar[str] = ""
     #: the messages and signals the codec reads and writes
-    needs: ClassVar[tuple[MessageSpec, ...]] = ()
+    dbc_needs: ClassVar[tuple[MessageSpec, ...]] = ()
     #: the format page that documents the layout (``docs/formats/...``)
-    doc: ClassVar[str] = ""
+    dbc_doc: ClassVar[str] = ""
 
     class Options(Codec.Options):
         dbc: str | None = param(None, description="DBC file of the layout, relative to "
@@ -96,4 +97,5 @@ class DbcCodec(Codec):
         super().__init__(options, **kw)
         dbc = self.options.dbc
         self.db = load_dbc(None if dbc is None else str(self.resolve(dbc)),
-                           shipped=self.shipped, needs=self.needs, doc=self.doc)
+                           shipped=self.dbc_shipped, needs=self.dbc_needs,
+                           doc=self.dbc_doc)

@@ -52,9 +52,9 @@ class CanImuCodec(DbcCodec):
     name = "can_imu"
     transport = "can"
     record = ImuSample
-    shipped = "firenav_imu.dbc"
-    needs = _NEEDS
-    doc = "docs/formats/can-imu.md"
+    dbc_shipped = "firenav_imu.dbc"
+    dbc_needs = _NEEDS
+    dbc_doc = "docs/formats/can-imu.md"
 
     class Options(DbcCodec.Options):
         temperature: float = param(25.0, unit="degC", ge=-128, le=127,

@@ -37,9 +37,9 @@ class UwbCanCodec(DbcCodec):
     name = "uwb_can"
     transport = "can"
     record = TwrReport
-    shipped = "uwb_twr.dbc"
-    needs = _NEEDS
-    doc = "docs/formats/uwb.md"
+    dbc_shipped = "uwb_twr.dbc"
+    dbc_needs = _NEEDS
+    dbc_doc = "docs/formats/uwb.md"
 
     def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)
