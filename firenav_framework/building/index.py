@@ -202,6 +202,36 @@ def _hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, mode, out_m, out_w
     return frac, which, pairs
 
 
+@njit(cache=True, inline="always")
+def _box_cells(px, py, radius, ox, oy, h, nx, ny):
+    """Cell ranges (i0, i1, j0, j1) of the square of half-side ``radius`` [m] about
+    (px, py), clamped to the grid; empty when i0 > i1 or j0 > j1."""
+    i0 = max(int(math.floor((px - radius - ox) / h)), 0)
+    i1 = min(int(math.floor((px + radius - ox) / h)), nx - 1)
+    j0 = max(int(math.floor((py - radius - oy) / h)), 0)
+    j1 = min(int(math.floor((py + radius - oy) / h)), ny - 1)
+    return i0, i1, j0, j1
+
+
+@njit(cache=True, inline="always")
+def _gather_cell(px, py, c, segs, start, items, stamp, tag, out, dist2, n):
+    """Append the segments of cell ``c`` that query ``tag`` has not seen yet to
+    ``out[n:]`` and their squared distances [m^2] from (px, py) to ``dist2[n:]``; marks
+    them seen in ``stamp`` and returns the new n (each segment is gathered once a query,
+    so W entries always suffice)."""
+    for k in range(start[c], start[c + 1]):
+        w = items[k]
+        if stamp[w] == tag:
+            continue
+        stamp[w] = tag
+        d2, _ = _point_seg_dist2(px, py, segs[w, 0, 0], segs[w, 0, 1],
+                                 segs[w, 1, 0], segs[w, 1, 1])
+        out[n] = w
+        dist2[n] = d2
+        n += 1
+    return n
+
+
 @njit(cache=True)
 def _nearest(pts, segs, start, items, ox, oy, h, nx, ny):
     """Nearest segment per point by ring search around the point's (clamped) cell."""
@@ -210,6 +240,8 @@ def _nearest(pts, segs, start, items, ox, oy, h, nx, ny):
     which = np.full(n, -1, dtype=np.int64)
     closest = np.empty((n, 2))
     stamp = np.full(segs.shape[0], -1, dtype=np.int64)
+    cand = np.empty(segs.shape[0], dtype=np.int64)
+    cand_d2 = np.empty(segs.shape[0])
     rmax = max(nx, ny)
     for m in range(n):
         px, py = pts[m, 0], pts[m, 1]
@@ -217,11 +249,11 @@ def _nearest(pts, segs, start, items, ox, oy, h, nx, ny):
         cj = min(max(int(math.floor((py - oy) / h)), 0), ny - 1)
         best = np.inf
         bestw = -1
-        bestu = 0.0
         for r in range(rmax + 1):
             # Rings 0..r-1 are done; anything in ring >= r is at least (r-1)*h away.
             if bestw >= 0 and math.sqrt(best) <= (r - 1) * h:
                 break
+            found = 0
             for j in range(cj - r, cj + r + 1):
                 if j < 0 or j >= ny:
                     continue
@@ -230,24 +262,22 @@ def _nearest(pts, segs, start, items, ox, oy, h, nx, ny):
                 i = ci - r
                 while i <= ci + r:
                     if 0 <= i < nx:
-                        c = j * nx + i
-                        for k in range(start[c], start[c + 1]):
-                            w = items[k]
-                            if stamp[w] == m:
-                                continue
-                            stamp[w] = m
-                            d2, u = _point_seg_dist2(px, py, segs[w, 0, 0], segs[w, 0, 1],
-                                                     segs[w, 1, 0], segs[w, 1, 1])
-                            if d2 < best or (d2 == best and w < bestw):
-                                best = d2
-                                bestw = w
-                                bestu = u
+                        found = _gather_cell(px, py, j * nx + i, segs, start, items, stamp, m,
+                                             cand, cand_d2, found)
                     i += step
+            for q in range(found):
+                w = cand[q]
+                d2 = cand_d2[q]
+                if d2 < best or (d2 == best and w < bestw):
+                    best = d2
+                    bestw = w
         which[m] = bestw
         if bestw >= 0:
             dist[m] = math.sqrt(best)
-            closest[m, 0] = segs[bestw, 0, 0] + bestu * (segs[bestw, 1, 0] - segs[bestw, 0, 0])
-            closest[m, 1] = segs[bestw, 0, 1] + bestu * (segs[bestw, 1, 1] - segs[bestw, 0, 1])
+            _, u = _point_seg_dist2(px, py, segs[bestw, 0, 0], segs[bestw, 0, 1],
+                                    segs[bestw, 1, 0], segs[bestw, 1, 1])
+            closest[m, 0] = segs[bestw, 0, 0] + u * (segs[bestw, 1, 0] - segs[bestw, 0, 0])
+            closest[m, 1] = segs[bestw, 0, 1] + u * (segs[bestw, 1, 1] - segs[bestw, 0, 1])
         else:
             dist[m] = np.inf
             closest[m, 0] = np.nan
@@ -401,10 +431,9 @@ class SegmentIndex:
         if not (radius >= 0 and math.isfinite(radius)):
             raise ValueError(f"radius must be a finite distance >= 0 [m], got {radius}")
         nx, ny = self.shape
-        i0 = max(int(math.floor((p[0] - radius - self.origin[0]) / self.cell)), 0)
-        i1 = min(int(math.floor((p[0] + radius - self.origin[0]) / self.cell)), nx - 1)
-        j0 = max(int(math.floor((p[1] - radius - self.origin[1]) / self.cell)), 0)
-        j1 = min(int(math.floor((p[1] + radius - self.origin[1]) / self.cell)), ny - 1)
+        i0, i1, j0, j1 = _box_cells(float(p[0]), float(p[1]), float(radius),
+                                    float(self.origin[0]), float(self.origin[1]), self.cell,
+                                    nx, ny)
         if i0 > i1 or j0 > j1:
             return np.empty(0, dtype=np.int64)
         rows = np.arange(j0, j1 + 1)[:, None] * nx + np.arange(i0, i1 + 1)[None, :]
@@ -451,29 +480,27 @@ def segments_near_sorted(px, py, radius, segs, start, items, ox, oy, h, nx, ny, 
     with a new tag per query the buffer never needs clearing. ``out`` and ``dist2`` hold
     W entries. Nothing is allocated.
     """
-    i0 = max(int(math.floor((px - radius - ox) / h)), 0)
-    i1 = min(int(math.floor((px + radius - ox) / h)), nx - 1)
-    j0 = max(int(math.floor((py - radius - oy) / h)), 0)
-    j1 = min(int(math.floor((py + radius - oy) / h)), ny - 1)
-    n = 0
-    r2 = radius * radius
+    i0, i1, j0, j1 = _box_cells(px, py, radius, ox, oy, h, nx, ny)
+    total = 0
     for j in range(j0, j1 + 1):
         for i in range(i0, i1 + 1):
-            c = j * nx + i
-            for k in range(start[c], start[c + 1]):
-                w = items[k]
-                if stamp[w] == tag:
-                    continue
-                stamp[w] = tag
-                d2, _ = _point_seg_dist2(px, py, segs[w, 0, 0], segs[w, 0, 1],
-                                         segs[w, 1, 0], segs[w, 1, 1])
-                if d2 <= r2:
-                    m = n          # insertion sort: a step's neighbourhood holds few walls
-                    while m > 0 and (dist2[m - 1] > d2 or (dist2[m - 1] == d2 and out[m - 1] > w)):
-                        dist2[m] = dist2[m - 1]
-                        out[m] = out[m - 1]
-                        m -= 1
-                    dist2[m] = d2
-                    out[m] = w
-                    n += 1
+            total = _gather_cell(px, py, j * nx + i, segs, start, items, stamp, tag, out,
+                                 dist2, total)
+    # Keep those within the radius, nearest first, in place: entry q is read before the
+    # sorted prefix (n <= q entries) can grow over it. Insertion sort: a step's
+    # neighbourhood holds few walls.
+    r2 = radius * radius
+    n = 0
+    for q in range(total):
+        w = out[q]
+        d2 = dist2[q]
+        if d2 <= r2:
+            m = n
+            while m > 0 and (dist2[m - 1] > d2 or (dist2[m - 1] == d2 and out[m - 1] > w)):
+                dist2[m] = dist2[m - 1]
+                out[m] = out[m - 1]
+                m -= 1
+            dist2[m] = d2
+            out[m] = w
+            n += 1
     return n

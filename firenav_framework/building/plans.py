@@ -61,7 +61,7 @@ def flat_125() -> PlanSketch:
     f.door("d_office", (10.5, 5.6), DOOR, NORTH)
     f.door("d_front", (0.0, 4.9), 1.0, EAST)
     sk.entrance("front", (0.0, 4.9), door="d_front")
-    sk.anchor("base", (-4.0, 4.9), height=1.0, kind="base_station")
+    sk.base_station((-4.0, 4.9))
     sk.georef(59.3498, 18.0707)          # KTH campus, Stockholm
     return sk
 
@@ -87,7 +87,7 @@ def area_250() -> PlanSketch:
     f.door("d_east", (23.0, 5.5), EXIT, (-1.0, 0.0))
     sk.entrance("west", (0.0, 5.5), door="d_west")
     sk.entrance("east", (23.0, 5.5), door="d_east")
-    sk.anchor("base", (-3.0, 5.5), height=1.0, kind="base_station")
+    sk.base_station((-3.0, 5.5))
     sk.georef(59.4045, 17.9494, bearing_deg=15.0)     # Kista, Stockholm; plan turned 15 deg
     return sk
 
@@ -119,7 +119,7 @@ def office_loop() -> PlanSketch:
         f.room(f"{side}3", (x0, 15.0, x1, 22.0), f"end room {side.upper()}3")
         f.door(f"d_{side}3", (xd, 16.0), DOOR, EAST)
     sk.entrance("lobby", (46.0, 11.0), heading_deg=180.0, door="d_e2")
-    sk.anchor("base", (45.0, 16.0), height=1.0, kind="base_station")
+    sk.base_station((45.0, 16.0))
     sk.georef(31.2990, 120.5853)          # Suzhou
     return sk
 
@@ -145,7 +145,7 @@ def corridor() -> PlanSketch:
     f.door("d_east", (40.0, 8.4), EXIT, (-1.0, 0.0))
     sk.entrance("west", (0.0, 8.4), door="d_west")
     sk.anchor("uwb_start", (5.12, 8.40), height=1.0, kind="uwb")
-    sk.anchor("base", (-3.0, 8.4), height=1.0, kind="base_station")
+    sk.base_station((-3.0, 8.4))
     sk.georef(51.7469, 19.4533)          # Lodz
     return sk
 
@@ -155,8 +155,7 @@ def three_storey() -> PlanSketch:
     # U stair in the stairwell x 0..5.5, y 5.5..14: flight 1 north at x = 1.4, landing at
     # y = 12.6, flight 2 south at x = 4.1; each storey's landing is y 5.5..8.
     stair_path = [(1.4, 8.0), (1.4, 12.6), (4.1, 12.6), (4.1, 8.0)]
-    for level in range(3):
-        f = sk.floor(3.5 * level, 3.5, ["ground", "first", "second"][level])
+    for level, f in enumerate(sk.storeys(3.5, ["ground", "first", "second"])):
         f.room("stairwell" if level == 0 else f"stairwell{level}", (0.0, 5.5, 5.5, 14.0),
                "stairwell", use="stairwell")
         f.door(f"d{level}_stair", (5.5, 6.75), 1.0, EAST)
@@ -183,7 +182,7 @@ def three_storey() -> PlanSketch:
                     n_steps=20)
     sk.floors[0].door("d_main", (13.5, 0.0), 1.6, NORTH)
     sk.entrance("main", (13.5, 0.0), door="d_main")
-    sk.anchor("base", (13.5, -5.0), height=1.0, kind="base_station")
+    sk.base_station((13.5, -5.0))
     sk.georef(46.5191, 6.5668, bearing_deg=20.0)     # EPFL, Lausanne; plan turned 20 deg
     return sk
 
@@ -215,7 +214,7 @@ def office_900() -> PlanSketch:
     f.door("d_east", (45.0, 10.0), EXIT, (-1.0, 0.0))
     sk.entrance("west", (0.0, 10.0), door="d_west")
     sk.entrance("east", (45.0, 10.0), door="d_east")
-    sk.anchor("base", (-3.0, 10.0), height=1.0, kind="base_station")
+    sk.base_station((-3.0, 10.0))
     sk.georef(52.2297, 21.0122)          # Warsaw
     return sk
 
@@ -225,8 +224,7 @@ def apartments_4() -> PlanSketch:
     # U stair in the core x 8..12, y 6..12: flight 1 north at x = 9, landing at y = 11.2,
     # flight 2 south at x = 11; each storey's part of the core south of it is its lobby.
     stair_path = [(9.0, 8.4), (9.0, 11.2), (11.0, 11.2), (11.0, 8.4)]
-    for level in range(4):
-        f = sk.floor(2.9 * level, 2.9, ["ground", "first", "second", "third"][level])
+    for level, f in enumerate(sk.storeys(2.9, ["ground", "first", "second", "third"])):
         f.room(f"{level}core", (8.0, 0.0, 12.0, 12.0), "stair core", use="stairwell")
         for side, x0, x1, door_x, sign in (("w", 0.0, 8.0, 8.0, -1.0), ("e", 12.0, 20.0, 12.0,
                                                                           1.0)):
@@ -249,7 +247,7 @@ def apartments_4() -> PlanSketch:
                     n_steps=17)
     sk.floors[0].door("d_main", (10.0, 0.0), 1.2, NORTH)
     sk.entrance("main", (10.0, 0.0), door="d_main")
-    sk.anchor("base", (10.0, -4.0), height=1.0, kind="base_station")
+    sk.base_station((10.0, -4.0))
     sk.georef(51.7592, 19.4560)          # Lodz
     return sk
 

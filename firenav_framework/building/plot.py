@@ -173,9 +173,8 @@ def save_floor_images(building: Building, out_dir: str | Path, *, patterns: Any 
 
     ``patterns`` as for :func:`draw_floor` (a SearchPatterns object covers all floors).
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from ..figures import pyplot, save_figure
+    plt = pyplot()
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -195,8 +194,6 @@ def save_floor_images(building: Building, out_dir: str | Path, *, patterns: Any 
         ax.set_ylabel("y [m]")
         ax.grid(alpha=0.25, lw=0.5)
         fig.tight_layout()
-        path = out / f"{building.name}_floor{floor.index}.png"
-        fig.savefig(path, dpi=dpi)
-        plt.close(fig)
-        paths.append(path)
+        paths.append(save_figure(fig, out / f"{building.name}_floor{floor.index}.png", dpi=dpi,
+                                 tight=False))
     return paths

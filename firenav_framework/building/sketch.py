@@ -138,6 +138,16 @@ class PlanSketch:
         self.floors.append(fs)
         return fs
 
+    def storeys(self, height: float, names: Sequence[str]) -> list[FloorSketch]:
+        """One storey per name, bottom-up, ``height`` [m] floor to floor, the first at
+        z = 0 (a building of equal storeys)."""
+        return [self.floor(height * level, height, name) for level, name in enumerate(names)]
+
+    def base_station(self, xy: Point, height: float = 1.0) -> "PlanSketch":
+        """The incident's base station: anchor ``base`` (kind ``base_station``), ``height``
+        [m] above the ground floor at ``xy``."""
+        return self.anchor("base", xy, height=height, kind="base_station")
+
     def anchor(self, id: str, xy: Point, floor: int = 0, height: float = 0.0,
                kind: str = "uwb") -> "PlanSketch":
         """A fixed radio node ``height`` [m] above the floor level."""

@@ -12,12 +12,10 @@ reports one. ``*HH`` is optional: the XOR of the bytes before ``*`` in hex, as N
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from typing import NamedTuple
 
-from ..messages import RawFrame
-from .base import Codec, EncodedFrame, FrameError
-from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
+from .base import FrameError
+from .checked_lines import NAME, CheckedLinesCodec
 
 __all__ = ["BaroReading", "BaroLinesCodec", "PRESSURE_RANGE_PA", "ZERO_CELSIUS_K"]
 
@@ -37,7 +35,7 @@ class BaroReading(NamedTuple):
     temperature: float | None = None
 
 
-class BaroLinesCodec(Codec):
+class BaroLinesCodec(CheckedLinesCodec):
     """Barometer lines: BARO,<device>,<pressure Pa>[,<temperature C>] with an optional *HH checksum.
 
     Other lines on the link are not ours (None); a broken BARO line raises
@@ -45,17 +43,10 @@ class BaroLinesCodec(Codec):
     """
 
     name = "baro_lines"
-    transport = "lines"
     record = BaroReading
-    Options = CheckedLineOptions
+    field_counts = {"BARO": (3, 4)}
 
-    def decode(self, frame: RawFrame) -> list[BaroReading] | None:
-        parts = decode_fields(frame.data, ("BARO",))
-        if parts is None:
-            return None
-        text = ",".join(parts)
-        if len(parts) not in (3, 4):
-            raise FrameError("bad_frames", f"BARO line has {len(parts)} fields: {text!r}")
+    def parse(self, t: float, parts: list[str], text: str) -> BaroReading:
         device = parts[1]
         if not NAME.match(device):
             raise FrameError("bad_frames", f"bad barometer id: {text!r}")
@@ -70,14 +61,11 @@ class BaroLinesCodec(Codec):
         if celsius is not None and not (math.isfinite(celsius) and -60.0 <= celsius <= 300.0):
             raise FrameError("bad_frames", f"temperature out of range: {text!r}")
         kelvin = None if celsius is None else celsius + ZERO_CELSIUS_K
-        return [BaroReading(frame.t, device, pressure, kelvin)]
+        return BaroReading(t, device, pressure, kelvin)
 
-    def encode(self, readings: Iterable[BaroReading], *, address: str = "") -> list[EncodedFrame]:
-        """One line per reading (no terminator), pressure to 0.01 Pa."""
-        out = []
-        for r in readings:
-            fields = ["BARO", r.device, f"{r.pressure:.2f}"]
-            if r.temperature is not None:
-                fields.append(f"{r.temperature - ZERO_CELSIUS_K:.2f}")
-            out.append(EncodedFrame(r.t, "", encode_fields(fields, self.options.checksum)))
-        return out
+    def line_fields(self, r: BaroReading) -> list[str]:
+        """The line of a reading (no terminator), pressure to 0.01 Pa."""
+        fields = ["BARO", r.device, f"{r.pressure:.2f}"]
+        if r.temperature is not None:
+            fields.append(f"{r.temperature - ZERO_CELSIUS_K:.2f}")
+        return fields

@@ -5,6 +5,8 @@ signal scales and ranges. Codecs read it with cantools for both directions and s
 which messages and signals they need (:class:`MessageSpec`); a file that lacks them is
 refused when it is loaded, naming the file and what is missing, so a wrong ``dbc:``
 option fails before any frame arrives. Shipped layouts live in ``codecs/dbc/``.
+:class:`DbcCodec` is the base of the codecs whose layout a DBC file owns: the ``dbc``
+option and its loading are there once.
 """
 from __future__ import annotations
 
@@ -13,9 +15,12 @@ import importlib.resources
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
-__all__ = ["MessageSpec", "load_dbc", "shipped_dbc"]
+from ..contract.params import Params, param
+from .base import Codec
+
+__all__ = ["MessageSpec", "DbcCodec", "load_dbc", "shipped_dbc"]
 
 
 @dataclass(frozen=True)
@@ -64,3 +69,33 @@ def load_dbc(path: str | None, *, shipped: str, needs: tuple[MessageSpec, ...],
                 raise ValueError(f"{where}: message {msg.name} lacks signals "
                                  f"{', '.join(missing)}")
     return db
+
+
+class DbcCodec(Codec):
+    """A CAN codec whose layout a DBC file owns (ids, scales, ranges).
+
+    The ``dbc`` option names the file, relative to the pipeline file; by default the
+    codec's shipped layout :attr:`dbc_shipped` (in ``codecs/dbc/``). It is loaded and
+    checked against :attr:`dbc_needs` once, when the codec is made (a wrong file fails
+    then, naming it and pointing to the format page :attr:`dbc_doc`), as the cantools
+    database :attr:`db`.
+    """
+
+    #: file name of the shipped layout in ``codecs/dbc/``
+    dbc_shipped: ClassVar[str] = ""
+    #: the messages and signals the codec reads and writes
+    dbc_needs: ClassVar[tuple[MessageSpec, ...]] = ()
+    #: the format page that documents the layout (``docs/formats/...``)
+    dbc_doc: ClassVar[str] = ""
+
+    class Options(Codec.Options):
+        dbc: str | None = param(None, description="DBC file of the layout, relative to "
+                                "the pipeline file (default: the layout shipped with the "
+                                "codec)")
+
+    def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
+        super().__init__(options, **kw)
+        dbc = self.options.dbc
+        self.db = load_dbc(None if dbc is None else str(self.resolve(dbc)),
+                           shipped=self.dbc_shipped, needs=self.dbc_needs,
+                           doc=self.dbc_doc)

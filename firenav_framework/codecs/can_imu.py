@@ -16,8 +16,8 @@ import numpy as np
 
 from ..contract.params import Params, param
 from ..messages import IMU_FLAG_BITS, ImuBlock, RawFrame
-from .base import Codec, EncodedFrame, FrameError
-from .can_database import MessageSpec, load_dbc
+from .base import EncodedFrame, FrameError
+from .can_database import DbcCodec, MessageSpec
 from .imu_sample import ImuSample, check_device_times
 
 __all__ = ["CanImuCodec"]
@@ -33,7 +33,7 @@ _MAX_PENDING = 4  # a sample still incomplete this many samples later is dropped
 _SATURATED = IMU_FLAG_BITS["saturated"]
 
 
-class CanImuCodec(Codec):
+class CanImuCodec(DbcCodec):
     """firenav reference foot IMU on CAN: ACCEL, GYRO and TIME frames per sample (DBC).
 
     Decoding pairs the three frames of a sample by ``Seq``, per bus and node, in any
@@ -52,19 +52,16 @@ class CanImuCodec(Codec):
     name = "can_imu"
     transport = "can"
     record = ImuSample
+    dbc_shipped = "firenav_imu.dbc"
+    dbc_needs = _NEEDS
+    dbc_doc = "docs/formats/can-imu.md"
 
-    class Options(Codec.Options):
-        dbc: str | None = param(None, description="DBC file of the layout, relative to "
-                                "the pipeline file (default: the shipped firenav_imu.dbc)")
+    class Options(DbcCodec.Options):
         temperature: float = param(25.0, unit="degC", ge=-128, le=127,
                                    description="sensor temperature sent in GYRO frames")
 
     def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)
-        dbc = self.options.dbc
-        self.db = load_dbc(None if dbc is None else str(self.resolve(dbc)),
-                           shipped="firenav_imu.dbc", needs=_NEEDS,
-                           doc="docs/formats/can-imu.md")
         self.ids: dict[int, tuple[int, str]] = {}   # frame id -> (node, kind)
         for msg in self.db.messages:
             m = _NAME.match(msg.name)

@@ -9,12 +9,10 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from typing import Literal, NamedTuple
 
-from ..messages import RawFrame
-from .base import Codec, EncodedFrame, FrameError
-from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
+from .base import FrameError
+from .checked_lines import NAME, CheckedLinesCodec
 
 __all__ = ["RfidEvent", "RfidLinesCodec"]
 
@@ -35,7 +33,7 @@ class RfidEvent(NamedTuple):
     reads: int = 1
 
 
-class RfidLinesCodec(Codec):
+class RfidLinesCodec(CheckedLinesCodec):
     """RFID reader lines: TAG reads and DEPLOY events, with an optional *HH checksum.
 
     Other lines on the link are not ours (None); a broken TAG or DEPLOY line raises
@@ -43,23 +41,16 @@ class RfidLinesCodec(Codec):
     """
 
     name = "rfid_lines"
-    transport = "lines"
     record = RfidEvent
-    Options = CheckedLineOptions
+    field_counts = {"TAG": (4, 5), "DEPLOY": (3,)}
 
-    def decode(self, frame: RawFrame) -> list[RfidEvent] | None:
-        parts = decode_fields(frame.data, ("TAG", "DEPLOY"))
-        if parts is None:
-            return None
-        text = ",".join(parts)
+    def parse(self, t: float, parts: list[str], text: str) -> RfidEvent:
         kind = parts[0]
-        if kind == "DEPLOY" and len(parts) != 3 or kind == "TAG" and len(parts) not in (4, 5):
-            raise FrameError("bad_frames", f"{kind} line has {len(parts)} fields: {text!r}")
         reader, tag_id = parts[1], parts[2]
         if not (NAME.match(reader) and NAME.match(tag_id)):
             raise FrameError("bad_frames", f"bad reader or tag id: {text!r}")
         if kind == "DEPLOY":
-            return [RfidEvent(frame.t, "DEPLOY", reader, tag_id)]
+            return RfidEvent(t, "DEPLOY", reader, tag_id)
         try:
             rssi = float(parts[3]) if parts[3] else None
             reads = int(parts[4]) if len(parts) == 5 else 1
@@ -67,16 +58,13 @@ class RfidLinesCodec(Codec):
             raise FrameError("bad_frames", f"non-numeric field: {text!r}") from None
         if (rssi is not None and not math.isfinite(rssi)) or reads < 1:
             raise FrameError("bad_frames", f"field out of range: {text!r}")
-        return [RfidEvent(frame.t, "TAG", reader, tag_id, rssi, reads)]
+        return RfidEvent(t, "TAG", reader, tag_id, rssi, reads)
 
-    def encode(self, events: Iterable[RfidEvent], *, address: str = "") -> list[EncodedFrame]:
-        """One line per event (no terminator)."""
-        out = []
-        for e in events:
-            fields = [e.kind, e.reader, e.tag_id]
-            if e.kind == "TAG":
-                fields.append("" if e.rssi_dbm is None else f"{e.rssi_dbm:.1f}")
-                if e.reads != 1:
-                    fields.append(str(e.reads))
-            out.append(EncodedFrame(e.t, "", encode_fields(fields, self.options.checksum)))
-        return out
+    def line_fields(self, e: RfidEvent) -> list[str]:
+        """The line of an event (no terminator)."""
+        fields = [e.kind, e.reader, e.tag_id]
+        if e.kind == "TAG":
+            fields.append("" if e.rssi_dbm is None else f"{e.rssi_dbm:.1f}")
+            if e.reads != 1:
+                fields.append(str(e.reads))
+        return fields

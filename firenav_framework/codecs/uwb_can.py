@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from ..contract.params import Params, param
+from ..contract.params import Params
 from ..messages import RawFrame
-from .base import Codec, EncodedFrame, FrameError
-from .can_database import MessageSpec, load_dbc
+from .base import EncodedFrame, FrameError
+from .can_database import DbcCodec, MessageSpec
 from .twr_report import TwrReport
 
 __all__ = ["UwbCanCodec"]
@@ -26,7 +26,7 @@ _RANGE_FAILED_MM = (1 << 24) - 1        # RangeMm value meaning "ranging failed"
 _POWER_NA_RAW = 255                      # raw power byte meaning "not available"
 
 
-class UwbCanCodec(Codec):
+class UwbCanCodec(DbcCodec):
     """UWB two-way-ranging reports as one UWB_TWR_REPORT CAN frame each (DBC).
 
     Frames with other ids (IMU frames on the same bus ...) are not ours (None); a
@@ -37,17 +37,13 @@ class UwbCanCodec(Codec):
     name = "uwb_can"
     transport = "can"
     record = TwrReport
-
-    class Options(Codec.Options):
-        dbc: str | None = param(None, description="DBC file of the report, relative to the "
-                                "pipeline file (default: the shipped uwb_twr.dbc)")
+    dbc_shipped = "uwb_twr.dbc"
+    dbc_needs = _NEEDS
+    dbc_doc = "docs/formats/uwb.md"
 
     def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)
-        dbc = self.options.dbc
-        db = load_dbc(None if dbc is None else str(self.resolve(dbc)), shipped="uwb_twr.dbc",
-                      needs=_NEEDS, doc="docs/formats/uwb.md")
-        self.message = db.get_message_by_name(_MESSAGE)
+        self.message = self.db.get_message_by_name(_MESSAGE)
 
     def channels(self, address: str) -> Sequence[int]:
         return [self.message.frame_id]

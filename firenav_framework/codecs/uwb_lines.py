@@ -5,11 +5,9 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 
-from ..messages import RawFrame
-from .base import Codec, EncodedFrame, FrameError
-from .checked_lines import NAME, CheckedLineOptions, decode_fields, encode_fields
+from .base import FrameError
+from .checked_lines import NAME, CheckedLinesCodec
 from .twr_report import TwrReport
 
 __all__ = ["UwbLinesCodec"]
@@ -19,7 +17,7 @@ def _power(v: float | None) -> str:
     return "" if v is None else f"{v:.1f}"
 
 
-class UwbLinesCodec(Codec):
+class UwbLinesCodec(CheckedLinesCodec):
     """UWB two-way-ranging reports as RANGE text lines with an optional *HH checksum.
 
     Lines of other kinds are not ours (None); a broken RANGE line raises
@@ -28,18 +26,10 @@ class UwbLinesCodec(Codec):
     """
 
     name = "uwb_lines"
-    transport = "lines"
     record = TwrReport
-    Options = CheckedLineOptions
+    field_counts = {"RANGE": (6, 7)}
 
-    def decode(self, frame: RawFrame) -> list[TwrReport] | None:
-        parts = decode_fields(frame.data, ("RANGE",))
-        if parts is None:
-            return None
-        text = ",".join(parts)
-        if len(parts) not in (6, 7):
-            raise FrameError("bad_frames", f"UWB line needs 6 or 7 fields, got {len(parts)}: "
-                             f"{text!r}")
+    def parse(self, t: float, parts: list[str], text: str) -> TwrReport:
         _, tag, anchor, mm, rx, fp, *rest = parts
         if not (NAME.match(tag) and NAME.match(anchor)):
             raise FrameError("bad_frames", f"UWB line has a bad tag or anchor id: {text!r}")
@@ -55,15 +45,12 @@ class UwbLinesCodec(Codec):
         for v in (rxv, fpv):
             if v is not None and not math.isfinite(v):
                 raise FrameError("bad_frames", f"UWB line power is not finite: {text!r}")
-        return [TwrReport(frame.t, tag, anchor, rng, rxv, fpv, seq)]
+        return TwrReport(t, tag, anchor, rng, rxv, fpv, seq)
 
-    def encode(self, reports: Iterable[TwrReport], *, address: str = "") -> list[EncodedFrame]:
-        """One line per report (no terminator), range in whole millimetres."""
-        out = []
-        for r in reports:
-            mm = "" if r.range_m is None else str(int(round(r.range_m * 1000)))
-            fields = ["RANGE", str(r.tag), str(r.anchor), mm, _power(r.rx_dbm), _power(r.fp_dbm)]
-            if r.seq is not None:
-                fields.append(str(r.seq))
-            out.append(EncodedFrame(r.t, "", encode_fields(fields, self.options.checksum)))
-        return out
+    def line_fields(self, r: TwrReport) -> list[str]:
+        """The line of a report (no terminator), range in whole millimetres."""
+        mm = "" if r.range_m is None else str(int(round(r.range_m * 1000)))
+        fields = ["RANGE", str(r.tag), str(r.anchor), mm, _power(r.rx_dbm), _power(r.fp_dbm)]
+        if r.seq is not None:
+            fields.append(str(r.seq))
+        return fields

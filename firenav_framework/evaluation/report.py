@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..figures import add_position_ellipse, pyplot, save_figure
 from ..tracks import Track
 from .metrics import KEYS
 from .runs import Evaluation, RunEvaluation
@@ -80,28 +81,9 @@ def figure_header(ev: Evaluation) -> list[str]:
     return head
 
 
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
-
-def _ellipse(ax, xy: np.ndarray, cov: np.ndarray, color: str) -> None:
-    from matplotlib.patches import Ellipse
-    c = cov[:2, :2]
-    if not np.all(np.isfinite(c)):
-        return
-    w, v = np.linalg.eigh(c)
-    w = np.maximum(w, 0.0)
-    ang = np.degrees(np.arctan2(v[1, 1], v[0, 1]))
-    ax.add_patch(Ellipse(xy, 4 * np.sqrt(w[1]), 4 * np.sqrt(w[0]), angle=ang, fill=False,
-                         color=color, lw=0.6, alpha=0.7))
-
-
 def _track_plot(run: RunEvaluation, base: RunEvaluation | None, out: Path, label: str,
                 base_label: str, every_s: float = 15.0) -> list[Path]:
-    plt = _plt()
+    plt = pyplot()
     building = run.building
     floors = sorted({int(f) for tr in run.truth.values() for f in np.unique(tr.floor) if f >= 0}
                     or {0})
@@ -126,17 +108,14 @@ def _track_plot(run: RunEvaluation, base: RunEvaluation | None, out: Path, label
                 next_t = -np.inf
                 for t, p, c in zip(tr.t[m], tr.position[m], tr.cov[m]):
                     if t >= next_t:
-                        _ellipse(ax, p[:2], c, color)
+                        add_position_ellipse(ax, p[:2], c, color, lw=0.6)
                         next_t = t + every_s
         ax.set_aspect("equal")
         ax.set_xlabel("x east [m]")
         ax.set_ylabel("y north [m]")
         ax.set_title(f"seed {run.seed}, floor {fl} (ellipses: 2 sigma every {every_s:g} s)")
         ax.legend(fontsize=6, loc="best")
-        path = out / f"tracks_seed{run.seed}_floor{fl}.png"
-        fig.savefig(path, dpi=110, bbox_inches="tight")
-        plt.close(fig)
-        paths.append(path)
+        paths.append(save_figure(fig, out / f"tracks_seed{run.seed}_floor{fl}.png"))
     return paths
 
 
@@ -150,7 +129,7 @@ def _on_floor(tr: Track, truth: Track | None, fl: int) -> np.ndarray:
 
 
 def _error_plots(ev: Evaluation, out: Path) -> tuple[Path, Path]:
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 4))
     series = [(ev, "#d62728", "pipeline")]
     if ev.baseline is not None:
@@ -166,9 +145,7 @@ def _error_plots(ev: Evaluation, out: Path) -> tuple[Path, Path]:
     ax.set_xlabel("time [s]")
     ax.set_ylabel("horizontal error [m]")
     ax.legend(fontsize=7)
-    p_time = out / "error_time.png"
-    fig.savefig(p_time, dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    p_time = save_figure(fig, out / "error_time.png")
     fig, ax = plt.subplots(figsize=(6, 4))
     for e, color, name in series:
         errs = np.sort(np.concatenate([err.horizontal for r in e.runs for err in r.errors.values()]
@@ -179,9 +156,7 @@ def _error_plots(ev: Evaluation, out: Path) -> tuple[Path, Path]:
     ax.set_ylabel("fraction of estimates")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    p_cdf = out / "error_cdf.png"
-    fig.savefig(p_cdf, dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    p_cdf = save_figure(fig, out / "error_cdf.png")
     return p_time, p_cdf
 
 

@@ -1,17 +1,21 @@
-"""What every recorded-file reader shares: its options, its error type, IMU blocking.
+"""What every recorded-file reader shares: its options, its error type, IMU blocking and
+reading a text recording in chunks.
 
 See :mod:`firenav_framework.sources.readers` for the reader contract itself and the
 table of readers by file suffix.
 """
 from __future__ import annotations
 
+import heapq
+import itertools
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..messages import ImuBlock
+from ..messages import ImuBlock, Message
 
 if TYPE_CHECKING:
     from .csv_layout import CsvColumns
@@ -91,3 +95,19 @@ def _block_time(time: np.ndarray) -> float:
         return last
     finite = time[np.isfinite(time)]
     return float(finite[-1]) if finite.size else last
+
+
+def chunked_imu(path: Path, skip_lines: int, chunk_rows: int,
+                parse: Callable[[list[str]], list[list[ImuBlock]]]
+                ) -> Iterator[tuple[str, Message]]:
+    """``("imu", block)`` of a text recording, in bounded memory: after ``skip_lines``
+    header lines, ``chunk_rows`` lines at a time go to ``parse`` (one time-ordered block
+    list per device), whose lists are merged in time order."""
+    with open(path, encoding="utf-8", errors="replace", newline="") as fh:
+        for _ in range(skip_lines):
+            fh.readline()
+        while True:
+            lines = list(itertools.islice(fh, chunk_rows))
+            if not lines:
+                return
+            yield from (("imu", b) for b in heapq.merge(*parse(lines), key=lambda b: b.t))

@@ -25,8 +25,6 @@ parse are skipped and counted as ``bad_rows``.
 """
 from __future__ import annotations
 
-import heapq
-import itertools
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -39,8 +37,8 @@ from pydantic import ValidationError, field_validator
 
 from ..contract.params import Params, param
 from ..messages import ImuBlock, Message
-from .base import ReaderError, ReadOptions, imu_blocks
-from .imu_csv import UNIT_SCALES
+from .base import ReaderError, ReadOptions, chunked_imu, imu_blocks
+from .imu_csv import CHUNK_ROWS, UNIT_SCALES
 
 __all__ = ["CsvLayout", "CsvColumns", "LayoutCsvReader", "find_sidecar", "load_sidecar",
            "SIDECAR_SUFFIX",
@@ -52,7 +50,6 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 SIDECAR_SUFFIX = ".columns.yaml"
 #: ... and ``columns.yaml`` every recording of its folder without a file of its own.
 FOLDER_SIDECAR = "columns.yaml"
-CHUNK_ROWS = 20000
 
 Column = str | int
 TimeUnit = Literal["s", "ms", "us", "ns", "sample"]
@@ -250,15 +247,7 @@ class LayoutCsvReader:
 
     # -- data -----------------------------------------------------------------------
     def __iter__(self) -> Iterator[tuple[str, Message]]:
-        with open(self.path, encoding="utf-8", errors="replace", newline="") as fh:
-            for _ in range(self._first_data):
-                fh.readline()
-            while True:
-                lines = list(itertools.islice(fh, CHUNK_ROWS))
-                if not lines:
-                    return
-                streams = self._chunk(lines)
-                yield from (("imu", b) for b in heapq.merge(*streams, key=lambda b: b.t))
+        yield from chunked_imu(self.path, self._first_data, CHUNK_ROWS, self._chunk)
 
     def _chunk(self, lines: list[str]) -> list[list[ImuBlock]]:
         lay = self.layout

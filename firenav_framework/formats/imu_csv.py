@@ -25,8 +25,6 @@ so that long recordings do not have to fit in memory twice. Rows it cannot parse
 """
 from __future__ import annotations
 
-import heapq
-import itertools
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO
@@ -34,7 +32,7 @@ from typing import IO
 import numpy as np
 
 from ..messages import ImuBlock, Message
-from .base import ReaderError, ReadOptions, imu_blocks
+from .base import ReaderError, ReadOptions, chunked_imu, imu_blocks
 
 __all__ = ["ImuCsvReader", "write_imu_csv", "UNIT_SCALES", "FORMAT_LINE"]
 
@@ -51,6 +49,7 @@ META_KEYS = ("accel_unit", "gyro_unit", "mag_unit", "frame", "agent", "device")
 NUMERIC = ("t", "ax", "ay", "az", "gx", "gy", "gz")
 MAG = ("mx", "my", "mz")
 LABELS = ("agent", "device")
+#: Rows parsed at once (memory stays bounded however long the file).
 CHUNK_ROWS = 20000
 
 
@@ -71,15 +70,7 @@ class ImuCsvReader:
         return None  # would need a pass over the whole file
 
     def __iter__(self) -> Iterator[tuple[str, Message]]:
-        with open(self.path, encoding="utf-8", errors="replace", newline="") as fh:
-            for _ in range(self._data_line):
-                fh.readline()
-            while True:
-                lines = list(itertools.islice(fh, CHUNK_ROWS))
-                if not lines:
-                    return
-                blocks = self._chunk_blocks(lines)
-                yield from (("imu", b) for b in heapq.merge(*blocks, key=lambda b: b.t))
+        yield from chunked_imu(self.path, self._data_line, CHUNK_ROWS, self._chunk_blocks)
 
     def _labels(self, agent: str, device: str) -> tuple[str, str]:
         """Agent and device of a row: its own columns, else the header, else the options."""

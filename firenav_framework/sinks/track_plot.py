@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..contract import FileSink, NoBuilding, OutputName, Params, param
+from ..figures import add_position_ellipse, pyplot, save_figure
 from ..messages import GroundTruth, PoseEstimate
 from ..tracks import Track, TrackStore
 
@@ -121,17 +122,10 @@ def _start_renderer() -> subprocess.Popen | None:
 def serve() -> None:
     """The renderer process: import matplotlib, then draw the job read from stdin (a
     pickled :func:`render` keyword set; nothing: exit)."""
-    _pyplot()
+    pyplot()
     data = sys.stdin.buffer.read()
     if data:
         render(**pickle.loads(data))
-
-
-def _pyplot() -> Any:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def render(tracks: dict[str, dict[str, Track]], truth: dict[str, Track], building: Any,
@@ -139,7 +133,7 @@ def render(tracks: dict[str, dict[str, Track]], truth: dict[str, Track], buildin
     """Draw ``tracks`` (stream -> agent -> Track) and ``truth`` (agent -> Track) over
     ``building`` (or None) into the PNG ``path``, one panel per floor visited, with a
     2-sigma position ellipse every ``ellipse_every`` seconds along each track."""
-    plt = _pyplot()
+    plt = pyplot()
     all_tracks = [tr for agents in tracks.values() for tr in agents.values()]
     all_tracks += list(truth.values())
     visited = sorted({int(f) for tr in all_tracks for f in np.unique(floors_of(tr, building))})
@@ -169,19 +163,11 @@ def render(tracks: dict[str, dict[str, Track]], truth: dict[str, Track], buildin
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
+    save_figure(fig, path, dpi=dpi, tight=False)
 
 
 def _ellipses(ax: Any, tr: Track, here: np.ndarray, color: str, every: float) -> None:
-    from matplotlib.patches import Ellipse
     next_t = -np.inf
     for t, p, cov, ok in zip(tr.t, tr.position, tr.cov, here):
-        if not ok or t < next_t or not np.all(np.isfinite(cov[:2, :2])):
-            continue
-        next_t = t + every
-        w, v = np.linalg.eigh(cov[:2, :2])
-        axes_len = 2 * 2.0 * np.sqrt(np.maximum(w, 0))  # full axes of the 2-sigma ellipse
-        ang = np.degrees(np.arctan2(v[1, 1], v[0, 1]))
-        ax.add_patch(Ellipse(p[:2], axes_len[1], axes_len[0], angle=ang, fill=False,
-                             color=color, lw=0.7, alpha=0.7))
+        if ok and t >= next_t and add_position_ellipse(ax, p[:2], cov, color, lw=0.7):
+            next_t = t + every

@@ -1,13 +1,13 @@
 """Aamks imports: the real export in ../shared/data/aamks and small hand-made files."""
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 import shapely
 
 from firenav_framework.building import BuildingError, load_building
+
+from .plan_files import write_plan
 
 # Two rooms side by side (cm): walls as 10 cm thick rectangles, one door between them,
 # a wardrobe (an obstacle that is not a thin wall) and the ORCA paper's string-free form.
@@ -42,14 +42,8 @@ HAND_MADE_STATIC = {
 }
 
 
-def write(tmp_path, data, name="plan.json"):
-    p = tmp_path / name
-    p.write_text(json.dumps(data))
-    return p
-
-
 def test_hand_made_static_export(tmp_path):
-    b = load_building(write(tmp_path, HAND_MADE_STATIC))
+    b = load_building(write_plan(tmp_path, HAND_MADE_STATIC, "plan.json"))
     assert [(f.z, f.height) for f in b.floors] == [(0.0, 3.0), (3.0, 3.0)]
     f = b.floor(0)
     walls = f.walls[~f.wall_is_obstacle]
@@ -74,7 +68,7 @@ def test_orca_obstacles_only_file(tmp_path):
     # The form printed in the ORCA paper (Sec. 2.2): floor "1" -> rectangles in cm.
     data = {"obstacles": {"1": [[[1394, 994], [1500, 994], [1500, 990], [1394, 990]],
                                 [[1135, 990], [1014, 990], [1014, 994], [1135, 994]]]}}
-    b = load_building(write(tmp_path, data))
+    b = load_building(write_plan(tmp_path, data, "plan.json"))
     walls = np.sort(b.floor(0).walls, axis=1)       # end points in x order
     np.testing.assert_allclose(walls, [[[13.92, 9.92], [15.02, 9.92]],
                                        [[10.12, 9.92], [11.37, 9.92]]], atol=1e-9)
@@ -140,7 +134,7 @@ def test_real_cad_export_matches_static(shared_data):
 ])
 def test_bad_aamks_files(tmp_path, data, message):
     with pytest.raises(BuildingError, match=message):
-        load_building(write(tmp_path, data))
+        load_building(write_plan(tmp_path, data, "plan.json"))
 
 
 SIMPLE_WALK = """

@@ -11,6 +11,8 @@ from firenav_framework.building import BuildingError, bundled_plan, bundled_plan
 from firenav_framework.building.geojson_format import write_geojson
 from firenav_framework.building.plans import PLANS
 
+from .plan_files import write_plan
+
 HAND_MADE = {
     "type": "FeatureCollection", "name": "hut",
     "features": [
@@ -37,14 +39,8 @@ HAND_MADE = {
     ]}
 
 
-def write(tmp_path, doc, name="plan.geojson"):
-    p = tmp_path / name
-    p.write_text(json.dumps(doc))
-    return p
-
-
 def test_hand_made_plan(tmp_path):
-    b = load_building(write(tmp_path, HAND_MADE))
+    b = load_building(write_plan(tmp_path, HAND_MADE))
     f = b.floor(0)
     assert b.name == "hut" and (f.z, f.height, f.name) == (0.0, 2.8, "ground")
     assert len(f.walls) == 9            # 5 wall segments + 4 obstacle edges
@@ -141,7 +137,7 @@ def _broken(**change):
 ])
 def test_invalid_plans_give_clear_errors(tmp_path, doc, message):
     with pytest.raises(BuildingError, match=message) as info:
-        load_building(write(tmp_path, doc))
+        load_building(write_plan(tmp_path, doc))
     assert str(tmp_path) in str(info.value)
 
 
@@ -163,8 +159,8 @@ def test_stair_properties_are_checked(tmp_path):
     doc["features"].append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": [[1, 1], [3, 1]]},
                             "properties": {"kind": "stair", "floor": 0, "id": "s", "floor_to": 1, "n_steps": -2}})
     with pytest.raises(BuildingError, match=r"id 's'\): property 'n_steps' must be a positive count"):
-        load_building(write(tmp_path, doc))
+        load_building(write_plan(tmp_path, doc))
     doc["features"][-1]["properties"].pop("n_steps")
     doc["features"][-1]["properties"]["width"] = 0
     with pytest.raises(BuildingError, match=r"property 'width' must be > 0"):
-        load_building(write(tmp_path, doc))
+        load_building(write_plan(tmp_path, doc))

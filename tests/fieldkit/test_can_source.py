@@ -25,6 +25,17 @@ def _read_back(path):
     return [m for _, m in find_reader(path)(path, opts)], counts
 
 
+def _send_and_wait(sender: can.BusABC, src, frames: list[tuple[int, bytes]], *,
+                   error_frame: bool = False) -> None:
+    """Send ``frames`` (id, data) on ``sender``, then an error frame if asked, and wait
+    until the running source ``src`` has received as many frames."""
+    for arb, data in frames:
+        sender.send(can.Message(arbitration_id=arb, data=data, is_extended_id=False))
+    if error_frame:
+        sender.send(can.Message(is_error_frame=True))
+    wait_for(lambda: len(src.frames()) >= len(frames), what="frames")
+
+
 def test_virtual_bus_frames_recorded_and_replayed_identically(running, tmp_path):
     channel = f"test-{uuid.uuid4().hex}"
     src = running(CanBusSource, {"interface": "virtual", "channel": channel, "device": "can0",
@@ -32,10 +43,7 @@ def test_virtual_bus_frames_recorded_and_replayed_identically(running, tmp_path)
     sender = can.Bus(interface="virtual", channel=channel)
     try:
         wait_for(lambda: src.source.link.bus is not None, what="bus open")
-        for arb, data in FRAMES:
-            sender.send(can.Message(arbitration_id=arb, data=data, is_extended_id=False))
-        sender.send(can.Message(is_error_frame=True))
-        wait_for(lambda: len(src.frames()) >= len(FRAMES), what="all frames")
+        _send_and_wait(sender, src, FRAMES, error_frame=True)
     finally:
         sender.shutdown()
     src.stop()
@@ -59,9 +67,7 @@ def test_other_python_can_formats_replay_the_same_frames(running, tmp_path, suff
     sender = can.Bus(interface="virtual", channel=channel)
     try:
         wait_for(lambda: src.source.link.bus is not None, what="bus open")
-        for arb, data in FRAMES[:50]:
-            sender.send(can.Message(arbitration_id=arb, data=data, is_extended_id=False))
-        wait_for(lambda: len(src.frames()) >= 50, what="frames")
+        _send_and_wait(sender, src, FRAMES[:50])
     finally:
         sender.shutdown()
     src.stop()
@@ -171,9 +177,7 @@ def test_a_failing_recorder_does_not_stop_the_link(running, tmp_path):
             raise OSError(28, "No space left on device")
 
         src.source.recorder.write = disk_full
-        for arb, data in FRAMES[:40]:
-            sender.send(can.Message(arbitration_id=arb, data=data, is_extended_id=False))
-        wait_for(lambda: len(src.frames()) >= 40, what="frames")
+        _send_and_wait(sender, src, FRAMES[:40])
     finally:
         sender.shutdown()
     src.stop()

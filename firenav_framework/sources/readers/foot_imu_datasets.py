@@ -220,13 +220,20 @@ def _scalar(data: dict, key: str, default: float = float("nan")) -> float:
     return float(a[0]) if a.size else default
 
 
-def load_vicon_trial(path: str | Path) -> ViconTrial:
-    """Load a PyShoe VICON trial ``.mat`` (see :class:`ViconTrial`)."""
+def _imu_mat(path: str | Path, ts_key: str, imu_key: str
+             ) -> tuple[Path, dict, np.ndarray, np.ndarray]:
+    """(path, variables, times (n,) [s], IMU (n, 6)) of a recording ``.mat`` whose
+    times are ``ts_key`` and whose accelerometer and gyroscope columns are ``imu_key``."""
     path = Path(path)
     data = _loadmat(path)
-    ts = _matrix(data, "ts", path)
+    ts = _matrix(data, ts_key, path)
+    return path, data, ts, _matrix(data, imu_key, path, cols=6, rows=len(ts))
+
+
+def load_vicon_trial(path: str | Path) -> ViconTrial:
+    """Load a PyShoe VICON trial ``.mat`` (see :class:`ViconTrial`)."""
+    path, data, ts, imu = _imu_mat(path, "ts", "imu")
     n = len(ts)
-    imu = _matrix(data, "imu", path, cols=6, rows=n)
     gt = _matrix(data, "gt", path, cols=3, rows=n)
     gt[:, :2] *= ENU_FROM_DATASET_XY
     zv = {d: _matrix(data, f"zv_{d}_opt", path, rows=n).astype(bool)
@@ -242,11 +249,8 @@ def load_vicon_trial(path: str | Path) -> ViconTrial:
 
 def load_indoor_walk(path: str | Path) -> IndoorWalk:
     """Load an indoor walk ``.mat`` (see :class:`IndoorWalk`)."""
-    path = Path(path)
-    data = _loadmat(path)
-    ts = _matrix(data, "timestamps", path)
+    path, data, ts, imu = _imu_mat(path, "timestamps", "imu_data")
     n = len(ts)
-    imu = _matrix(data, "imu_data", path, cols=6, rows=n)
     stride = _matrix(data, "strideIndex", path)
     if np.any(stride != np.round(stride)) or np.any((stride < 0) | (stride >= n)):
         raise ReaderError(f"{path}: strideIndex must hold sample indices 0..{n - 1}")
