@@ -54,8 +54,8 @@ def test_a_lasting_drift_and_scale_error_grow_as_a_constant_one_does():
     puts the along-track error at s N L; the floor adds to both."""
     n, length, d = 40, 1.3, 1.1
     sigma_r, sigma_s, floor = math.radians(0.2), 0.03, 0.1
-    unc = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.0, length_sigma=0.0),
-                          sigma_r, sigma_s, floor)
+    unc = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.0, length_sigma=0.0,
+                                           yaw_drift_rate_sigma=sigma_r), sigma_s, floor)
     for st in _straight(n, length, d):
         cov = unc.step(st)
     assert cov[1, 1] == pytest.approx((sigma_r * length * d * n * (n - 1) / 2) ** 2 + floor ** 2)
@@ -63,18 +63,38 @@ def test_a_lasting_drift_and_scale_error_grow_as_a_constant_one_does():
     assert cov[3, 3] == pytest.approx((sigma_r * n * d) ** 2)
 
 
-def test_the_odometry_errors_are_counted_once_and_the_drift_part_not_twice():
-    """The step-to-step parts come from the odometry's errors; its own lasting drift
-    (odometry.yaw_drift_sigma) is replaced by the rate state."""
+def test_the_odometry_errors_are_the_poses_step_to_step_part():
+    """The step-to-step parts come from the odometry's errors, as the increments carry
+    them: with no lasting drift and no scale error the pose variance is their sum."""
     steps = _straight(10, 1.0, 1.0)
-    a = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.01, yaw_drift_sigma=0.5,
-                                         length_sigma=0.02), 0.0, 0.0, 0.0)
-    b = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.01, length_sigma=0.02), 0.0, 0.0, 0.0)
+    unc = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.01, length_sigma=0.02), 0.0, 0.0)
     for st in steps:
-        ca, cb = a.step(st), b.step(st)
-    np.testing.assert_allclose(ca, cb)
-    assert ca[3, 3] == pytest.approx(10 * 0.01 ** 2)
-    assert ca[0, 0] == pytest.approx(10 * 0.02 ** 2)
+        cov = unc.step(st)
+    assert cov[3, 3] == pytest.approx(10 * 0.01 ** 2)
+    assert cov[0, 0] == pytest.approx(10 * 0.02 ** 2)
+
+
+def test_yaw_drift_has_one_home_carried_on_the_odometry():
+    """One parameter, odometry.yaw_drift_rate_sigma: every odometry message carries it
+    (Odometry.yaw_drift_rate_sigma, rad/s), the poses' covariance counts it, and the
+    increments stay step-to-step only (the same covariance whatever the drift). Before,
+    odometry.yaw_drift_sigma went into the increments and integrity.yaw_drift_sigma, of
+    the same name, into the poses only."""
+    rate = math.radians(0.3)
+    with pytest.raises(Exception):
+        ZuptInsParams(integrity={"yaw_drift_sigma": rate})
+    default = ZuptInsParams().odometry.yaw_drift_rate_sigma
+    assert default == pytest.approx(math.radians(0.17))
+    runs = {r: run_component(ZuptInsEstimator, {"odometry": {"yaw_drift_rate_sigma": r}},
+                             blocks()) for r in (0.0, rate)}
+    for r, rec in runs.items():
+        assert rec.on("odometry") and all(o.yaw_drift_rate_sigma == r for o in rec.on("odometry"))
+    for a, b in zip(runs[0.0].on("odometry"), runs[rate].on("odometry")):
+        np.testing.assert_array_equal(a.cov, b.cov)
+    still, drifting = runs[0.0].on("pose")[-1], runs[rate].on("pose")[-1]
+    elapsed = drifting.t - runs[rate].on("odometry")[0].t_start
+    assert drifting.cov[3, 3] - still.cov[3, 3] == pytest.approx((rate * elapsed) ** 2, rel=0.05)
+    assert drifting.protection_radius > still.protection_radius
 
 
 def _walk_errors(shared_data: Path, params: ZuptInsParams, own_cov_only: bool):

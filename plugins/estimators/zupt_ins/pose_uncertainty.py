@@ -10,13 +10,14 @@ drift rate [rad/s], step-length scale error [-]) in the INS frame, propagated st
 step:
 
 * a heading error turns the step ``delta``: d(position) = (-delta_y, delta_x, 0) d(heading);
-* the drift rate, one constant per mission with sigma ``drift_sigma``, adds
-  ``rate * duration`` to the heading (so the heading variance is ``(drift_sigma t)^2``);
+* the drift rate, one constant per mission with sigma ``yaw_drift_rate_sigma`` of
+  ``steps.UnmodelledErrors`` (the odometry's, published on every message), adds
+  ``rate * duration`` to the heading (so the heading variance is ``(sigma t)^2``);
 * the scale error, one constant per mission with sigma ``scale_sigma``, lengthens every
   step's horizontal displacement alike (the ZUPTs cannot see it: a simulated unit
   measures 98-99 % of the distance on every run);
 * each step adds the step-to-step turn-rate and step-length errors of
-  ``steps.UnmodelledErrors`` (their lasting-drift part is the rate state here).
+  ``steps.UnmodelledErrors``, as the odometry increments carry them.
 
 :meth:`PoseUncertainty.step` returns the pose covariance (4, 4) over (x, y, z, heading):
 the filter's ``cov_abs`` plus the unmodelled part, the two taken as independent, plus a
@@ -40,16 +41,14 @@ _SCALE = 5   # index of the step-length scale error
 class PoseUncertainty:
     """Unmodelled errors accumulated into one IMU's absolute pose (see the module)."""
 
-    def __init__(self, errors: UnmodelledErrors, drift_sigma: float, scale_sigma: float,
+    def __init__(self, errors: UnmodelledErrors, scale_sigma: float,
                  position_sigma: float) -> None:
-        """``errors``: the step-to-step parts (its ``yaw_drift_sigma`` is not used);
-        ``drift_sigma`` [rad/s]: spread of the heading drift rate that lasts;
-        ``scale_sigma`` [-]: of the step-length scale; ``position_sigma`` [m]: the
-        horizontal floor."""
-        self.errors = UnmodelledErrors(yaw_rate_sigma=errors.yaw_rate_sigma,
-                                       yaw_drift_sigma=0.0, length_sigma=errors.length_sigma)
+        """``errors``: the odometry's (step-to-step parts and the lasting drift rate's
+        spread); ``scale_sigma`` [-]: of the step-length scale; ``position_sigma`` [m]:
+        the horizontal floor."""
+        self.errors = errors
         self.cov = np.zeros((6, 6))
-        self.cov[_RATE, _RATE] = drift_sigma ** 2
+        self.cov[_RATE, _RATE] = errors.yaw_drift_rate_sigma ** 2
         self.cov[_SCALE, _SCALE] = scale_sigma ** 2
         self.floor = np.diag([position_sigma ** 2, position_sigma ** 2, 0.0, 0.0])
         self.last = self.floor.copy()
