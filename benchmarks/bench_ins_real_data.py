@@ -347,6 +347,15 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
 FIT_DISTANCE = 5.0
 
 
+def fit_count(truth: np.ndarray) -> int:
+    """Poses the start frame is fitted on: up to and including the first one at least
+    FIT_DISTANCE metres along the true path ``truth`` (K, 2). (Up to the last one short
+    of it, as before, a run whose first step is longer had only rest poses to fit: no
+    direction, a frame turned at random.)"""
+    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(truth, axis=0).T))))
+    return int(np.searchsorted(walked, FIT_DISTANCE)) + 1
+
+
 def step_poses(params: ZuptInsParams, res: BlockResult, own_cov_only: bool = False
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t (K,), position (K, 3), covariance (K, 4, 4)) of the plugin's ``pose`` output
@@ -395,13 +404,12 @@ def walk_integrity(params: ZuptInsParams, w: IndoorWalk, own_cov_only: bool = Fa
 def trial_integrity(params: ZuptInsParams, tr: ViconTrial, own_cov_only: bool = False
                     ) -> TrackErrors:
     """The step poses against the VICON foot at the same samples, fitted on the truth's
-    first FIT_DISTANCE metres."""
+    first FIT_DISTANCE metres (``fit_count``)."""
     res, _ = run(params, tr.ts, tr.imu)
     t, pos, cov = step_poses(params, res, own_cov_only)
     at = np.minimum(np.searchsorted(tr.ts, t), len(tr.ts) - 1)
     truth = tr.gt[at, :2]
-    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(truth, axis=0).T))))
-    return integrity_errors(params, pos, cov, truth, int(np.searchsorted(walked, FIT_DISTANCE)))
+    return integrity_errors(params, pos, cov, truth, fit_count(truth))
 
 
 def integrity_row(name: str, errs: list) -> None:

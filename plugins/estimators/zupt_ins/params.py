@@ -21,7 +21,7 @@ from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import start_pose_type
 from . import detectors, eskf
-from .pose_uncertainty import PoseUncertainty
+from .pose_uncertainty import FastGaitErrors, PoseUncertainty
 from .steps import GaitThresholds, UnmodelledErrors
 
 G_STANDARD = 9.80665
@@ -241,10 +241,23 @@ class PoseIntegrity(IntegrityParams):
     position_sigma: float = param(0.1, unit="m", ge=0, description="horizontal floor of "
                                   "the poses' uncertainty: the IMU is not the point tracked "
                                   "(a footprint, the wearer)")
+    speed_from: float = param(2.0, unit="m/s", ge=0, description="step speed above which "
+                              "the fast-gait heading drift acts (running)")
+    speed_drift_sigma: float = param(0.5 * DEG, unit="rad/s per m/s", ge=0, description=(
+        "spread of a heading drift rate that lasts the mission and acts in proportion to "
+        "the step speed above speed_from (impacts: gyro g-sensitivity, vibration "
+        "rectification, saturation)"))
+    long_swing: float = param(2.0, unit="s", gt=0, description="a step lasting longer "
+                              "missed zero-velocity updates (integrated unaided)")
+    long_swing_sigma: float = param(0.05, unit="1/s", ge=0, description="horizontal error "
+                                    "of such a step, relative to its length, per second "
+                                    "beyond long_swing (each axis)")
 
     def uncertainty(self, errors: UnmodelledErrors) -> PoseUncertainty:
         """A fresh :class:`PoseUncertainty` with the odometry's ``errors``."""
-        return PoseUncertainty(errors, self.scale_sigma, self.position_sigma)
+        return PoseUncertainty(errors, self.scale_sigma, self.position_sigma, FastGaitErrors(
+            speed_from=self.speed_from, speed_drift_sigma=self.speed_drift_sigma,
+            long_swing=self.long_swing, long_swing_sigma=self.long_swing_sigma))
 
 
 class Outputs(Params):

@@ -19,6 +19,13 @@ step:
 * each step adds the step-to-step turn-rate and step-length errors of
   ``steps.UnmodelledErrors``, as the odometry increments carry them.
 
+Fast gaits add two more (:class:`FastGaitErrors`): a second lasting drift rate that acts
+only as fast as the step goes above a walking speed (impacts of 5-8 g: gyro
+g-sensitivity and vibration rectification, the accelerometer and gyro saturating), so
+heading is lost by ``rate * max(0, speed - speed_from) * duration``; and a step whose
+swing ran longer than ``long_swing`` (zero-velocity updates missed: seconds of strapdown
+integration unaided) has a horizontal error growing with the excess, in any direction.
+
 :meth:`PoseUncertainty.step` returns the pose covariance (4, 4) over (x, y, z, heading):
 the filter's ``cov_abs`` plus the unmodelled part, the two taken as independent, plus a
 horizontal floor ``position_sigma``: the point the INS tracks (the IMU) is not the point
@@ -28,27 +35,54 @@ radius from it.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .steps import Step, UnmodelledErrors
 
-__all__ = ["PoseUncertainty"]
+__all__ = ["FastGaitErrors", "PoseUncertainty"]
 
 _RATE = 4    # index of the heading drift rate in the unmodelled covariance
 _SCALE = 5   # index of the step-length scale error
+_FAST = 6    # index of the fast-gait drift rate [rad/s per m/s]
+
+
+@dataclass(frozen=True)
+class FastGaitErrors:
+    """Errors of steps faster or longer than walking's (SI units, see the module)."""
+
+    speed_from: float = 2.0          # [m/s] step speed above which the fast-gait drift acts
+    speed_drift_sigma: float = 0.0   # [rad/s per m/s] spread of that drift rate
+    long_swing: float = 2.0          # [s] steps lasting longer missed zero-velocity updates
+    long_swing_sigma: float = 0.0    # [1/s] relative horizontal error per second beyond it
+
+    def excess_speed(self, step: Step, duration: float) -> float:
+        """How far [m/s] the step's horizontal speed lies above ``speed_from``."""
+        if duration <= 0.0:
+            return 0.0
+        return max(0.0, float(np.hypot(step.delta[0], step.delta[1])) / duration
+                   - self.speed_from)
+
+    def long_swing_variance(self, step: Step, duration: float) -> float:
+        """Variance [m^2] per horizontal axis of a step lasting ``duration`` [s]."""
+        excess = max(0.0, duration - self.long_swing)
+        return (self.long_swing_sigma * excess) ** 2 * float(step.delta[:2] @ step.delta[:2])
 
 
 class PoseUncertainty:
     """Unmodelled errors accumulated into one IMU's absolute pose (see the module)."""
 
     def __init__(self, errors: UnmodelledErrors, scale_sigma: float,
-                 position_sigma: float) -> None:
+                 position_sigma: float, fast: FastGaitErrors | None = None) -> None:
         """``errors``: the odometry's (step-to-step parts and the lasting drift rate's
         spread); ``scale_sigma`` [-]: of the step-length scale; ``position_sigma`` [m]:
-        the horizontal floor."""
+        the horizontal floor; ``fast``: the fast gaits' errors (default: none)."""
         self.errors = errors
-        self.cov = np.zeros((6, 6))
+        self.fast = fast or FastGaitErrors()
+        self.cov = np.zeros((7, 7))
         self.cov[_RATE, _RATE] = errors.yaw_drift_rate_sigma ** 2
+        self.cov[_FAST, _FAST] = self.fast.speed_drift_sigma ** 2
         self.cov[_SCALE, _SCALE] = scale_sigma ** 2
         self.floor = np.diag([position_sigma ** 2, position_sigma ** 2, 0.0, 0.0])
         self.last = self.floor.copy()
@@ -56,11 +90,15 @@ class PoseUncertainty:
     def step(self, step: Step) -> np.ndarray:
         """Propagate over one step; the pose covariance (4, 4) at its end, INS frame."""
         duration = max(step.t - step.t_start, 0.0)
-        f = np.eye(6)
+        f = np.eye(7)
         f[0, 3], f[1, 3] = -step.delta[1], step.delta[0]
         f[3, _RATE] = duration
+        f[3, _FAST] = duration * self.fast.excess_speed(step, duration)
         f[0, _SCALE], f[1, _SCALE] = step.delta[0], step.delta[1]
         self.cov = f @ self.cov @ f.T
         self.cov[:4, :4] += self.errors.inflate(np.zeros((4, 4)), step.delta, duration)
+        swing = self.fast.long_swing_variance(step, duration)
+        self.cov[0, 0] += swing
+        self.cov[1, 1] += swing
         self.last = self.cov[:4, :4] + self.floor
         return step.cov_abs + self.last
