@@ -4,8 +4,6 @@ benchmarks/bench_ins_real_data.py runs all 56 VICON trials and 8 indoor walks.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
