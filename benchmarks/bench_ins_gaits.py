@@ -4,6 +4,8 @@
     .venv/bin/python benchmarks/bench_ins_gaits.py --seeds tuning   # seeds 100-139
     .venv/bin/python benchmarks/bench_ins_gaits.py --field          # the field scenarios
     .venv/bin/python benchmarks/bench_ins_gaits.py --tune           # choose the crawl levels
+    .venv/bin/python benchmarks/bench_ins_gaits.py --integrity --seeds fresh --gaits run,walk
+                                    # covariance, radius, trusted (seeds 2000-2019)
 
 Three scenarios of ``benchmarks/scenarios`` (the same corridor, the IMU of the real
 recordings, as worn): ``ins_walk`` (54 m), ``ins_crawl`` (kneel, then 34 m on hands and
@@ -58,7 +60,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 from bench_ins_real_data import (  # noqa: E402
-    FIT_DISTANCE, MAIN, PREVIOUS, WALK_TUNING, data_dir, eval_trial, integrity_errors,
+    MAIN, PREVIOUS, WALK_TUNING, data_dir, eval_trial, fit_count, integrity_errors,
     integrity_row, run, split, step_poses)
 from firenav_framework.simulator import simulate  # noqa: E402
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
@@ -77,7 +79,10 @@ SCENARIOS: dict[str, Path | str] = {
 FIELD: dict[str, Path | str] = {"crawl_search": "field_crawl_search",
                                 "corridor_run": "field_corridor_run",
                                 "multifloor_long": "field_multifloor_long"}
-SEEDS = {"tuning": range(100, 140), "report": range(1000, 1020)}
+SEEDS = {"tuning": range(100, 140), "report": range(1000, 1020), "fresh": range(2000, 2020)}
+#: ``--integrity``'s "no fast gait" row: the poses' covariance without the fast-gait errors
+#: (``pose_uncertainty.FastGaitErrors``), as it was before they were counted.
+NO_FAST_GAIT = {"integrity": {"speed_drift_sigma": 0.0, "long_swing_sigma": 0.0}}
 #: device axes of the simulator's IMU frames -> FLU
 TO_FLU = {"FRD": np.array([1.0, -1.0, -1.0]), "FLU": np.ones(3)}
 ALIGN_DISTANCE = 5.0   # [m] the steps of the first this many metres fit the start pose
@@ -298,30 +303,31 @@ def tune() -> None:
 def sim_integrity(params: ZuptInsParams, rec: Recording, own_cov_only: bool = False):
     """The evaluation's error series of the ``pose`` output of one simulated run: the
     step poses against the true foot at the same instants, the frame fitted on the first
-    FIT_DISTANCE metres (``bench_ins_real_data.integrity_errors``)."""
+    5 m (``bench_ins_real_data.fit_count``, ``integrity_errors``)."""
     rate = 1.0 / float(np.median(np.diff(rec.t)))
     eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
     res = BlockResult.concat([eng.process(rec.t, rec.accel, rec.gyro), eng.finish()])
     t, pos, cov = step_poses(params, res, own_cov_only)
     at = np.minimum(np.searchsorted(rec.t, t), len(rec.t) - 1)
     truth = rec.foot[at, :2]
-    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(truth, axis=0).T))))
-    return integrity_errors(params, pos, cov, truth, int(np.searchsorted(walked, FIT_DISTANCE)))
+    return integrity_errors(params, pos, cov, truth, fit_count(truth))
 
 
-def report_integrity(seeds: range) -> None:
+def report_integrity(seeds: range, gaits: list[str] | None = None) -> None:
     """``--integrity``: NEES, ellipse and protection-radius containment of the poses on
-    the simulated gaits, beside the filter's own covariance alone (the same runs)."""
-    params = ZuptInsParams()
+    the simulated gaits, beside the covariance without the fast-gait errors and the
+    filter's own covariance alone (the same runs)."""
+    params, no_fast = ZuptInsParams(), ZuptInsParams(**NO_FAST_GAIT)
     print(f"Simulated gaits, seeds {seeds.start}-{seeds.stop - 1} ({len(seeds)} runs a row)\n")
     print("| scenario | covariance | runs | poses | NEES x,y (median of the runs') | 95 % "
           "ellipse holds the truth | error within the protection radius (99 % promised) | "
           "trusted | trusted while > 3 m off (worst run) |")
     print("|---|---|---|---|---|---|---|---|---|")
-    for gait in SCENARIOS:
+    for gait in gaits or SCENARIOS:
         recs = [record(gait, s) for s in seeds]
-        for own, label in ((False, "now"), (True, "before")):
-            integrity_row(f"{gait} | {label}", [sim_integrity(params, r, own) for r in recs])
+        for p, own, label in ((params, False, "now"), (no_fast, False, "no fast gait"),
+                              (params, True, "filter's own")):
+            integrity_row(f"{gait} | {label}", [sim_integrity(p, r, own) for r in recs])
 
 
 #: ``--tune-height`` grid of the level-floor handling (``height`` group).
@@ -371,13 +377,15 @@ def main() -> None:
                     "radius containment of the poses")
     ap.add_argument("--tune-height", action="store_true", help="choose the level-floor "
                     "parameters (minutes)")
+    ap.add_argument("--gaits", help="--integrity: these scenarios only (comma-separated, "
+                    f"of {', '.join({**SCENARIOS, **FIELD})})")
     args = ap.parse_args()
     if args.tune:
         tune()
     elif args.tune_height:
         tune_height()
     elif args.integrity:
-        report_integrity(SEEDS[args.seeds])
+        report_integrity(SEEDS[args.seeds], args.gaits.split(",") if args.gaits else None)
     else:
         report(SEEDS[args.seeds], field=args.field)
 

@@ -25,9 +25,11 @@ trials and the walks, which played no part in the choice.
 
 ``--heading`` checks the heading uncertainty the odometry publishes against the heading
 drift of the indoor walks: the increments' heading variances summed as a consumer sums
-them, beside the drift (``simulator.recordings.heading_drift``, slope of the step
-headings' error) times the walk's duration; "now" with the lasting drift part
-(``odometry.yaw_drift_sigma`` 0.17 deg/s), "before" with the default (0: off).
+them plus the published drift-rate sigma (``Odometry.yaw_drift_rate_sigma``, from
+``odometry.yaw_drift_rate_sigma``, 0.17 deg/s) times the time ("now"; a consumer with a
+drift state), beside the increments alone ("before"), and the drift
+(``simulator.recordings.heading_drift``, slope of the step headings' error) times the
+walk's duration.
 
 Options of the zupt-extension paper are measured on/off: retrospective correction
 (full-rate track: VICON ARMSE) and level-floor height correction (vertical error:
@@ -345,6 +347,15 @@ def report(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
 FIT_DISTANCE = 5.0
 
 
+def fit_count(truth: np.ndarray) -> int:
+    """Poses the start frame is fitted on: up to and including the first one at least
+    FIT_DISTANCE metres along the true path ``truth`` (K, 2). (Up to the last one short
+    of it, as before, a run whose first step is longer had only rest poses to fit: no
+    direction, a frame turned at random.)"""
+    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(truth, axis=0).T))))
+    return int(np.searchsorted(walked, FIT_DISTANCE)) + 1
+
+
 def step_poses(params: ZuptInsParams, res: BlockResult, own_cov_only: bool = False
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t (K,), position (K, 3), covariance (K, 4, 4)) of the plugin's ``pose`` output
@@ -393,13 +404,12 @@ def walk_integrity(params: ZuptInsParams, w: IndoorWalk, own_cov_only: bool = Fa
 def trial_integrity(params: ZuptInsParams, tr: ViconTrial, own_cov_only: bool = False
                     ) -> TrackErrors:
     """The step poses against the VICON foot at the same samples, fitted on the truth's
-    first FIT_DISTANCE metres."""
+    first FIT_DISTANCE metres (``fit_count``)."""
     res, _ = run(params, tr.ts, tr.imu)
     t, pos, cov = step_poses(params, res, own_cov_only)
     at = np.minimum(np.searchsorted(tr.ts, t), len(tr.ts) - 1)
     truth = tr.gt[at, :2]
-    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(truth, axis=0).T))))
-    return integrity_errors(params, pos, cov, truth, int(np.searchsorted(walked, FIT_DISTANCE)))
+    return integrity_errors(params, pos, cov, truth, fit_count(truth))
 
 
 def integrity_row(name: str, errs: list) -> None:
@@ -540,29 +550,31 @@ def report_zupt_fgo(folder: Path) -> None:
         print(f"  {name:10s} right {right:.3f}, left {left:.3f} (published, their own alignment)")
 
 
-def heading_sigma(params: ZuptInsParams, w: IndoorWalk) -> tuple[float, float, float]:
-    """(duration [s], heading drift [deg/s], published heading sigma at the end [deg]) of
-    a walk: the odometry's heading variances summed over its steps."""
+def heading_sigma(params: ZuptInsParams, w: IndoorWalk) -> tuple[float, float, float, float]:
+    """(duration [s], heading drift [deg/s], published heading sigma at the end [deg]:
+    the increments' alone and with the drift rate's) of a walk: the odometry's heading
+    variances summed over its steps, plus (published drift-rate sigma * duration)^2."""
     from firenav_framework.simulator.recordings import heading_drift
 
     res, pos = run(params, w.ts, w.imu)
     fit = heading_drift(pos[w.stride_index, :2], w.gcp, w.ts[w.stride_index], n_align=N_ALIGN)
     tracker = StepTracker(params.gait.thresholds(), params.odometry.errors())
     steps = [tracker.step(ev) for ev in res.events]
-    return (steps[-1].t - steps[0].t_start, fit.drift_dps,
-            math.degrees(math.sqrt(sum(st.cov[3, 3] for st in steps))))
+    duration = steps[-1].t - steps[0].t_start
+    increments = sum(st.cov[3, 3] for st in steps)
+    drift = (params.odometry.yaw_drift_rate_sigma * duration) ** 2
+    return (duration, fit.drift_dps, math.degrees(math.sqrt(increments)),
+            math.degrees(math.sqrt(increments + drift)))
 
 
 def report_heading(walks: list[IndoorWalk]) -> None:
-    now, before = (ZuptInsParams(odometry={"yaw_drift_sigma": math.radians(0.17)}),
-                   ZuptInsParams())
+    params = ZuptInsParams()
     print("| walk | half | duration [s] | drift [deg/s] | heading lost [deg] | published sigma "
-          "[deg] before / now | drift / sigma before / now |")
+          "[deg] increments alone / with the drift rate | drift / sigma before / now |")
     print("|---|---|---|---|---|---|---|")
     z = []
     for i, w in enumerate(walks):
-        dur, drift, sig = heading_sigma(now, w)
-        _, _, sig0 = heading_sigma(before, w)
+        dur, drift, sig0, sig = heading_sigma(params, w)
         lost = abs(drift) * dur
         z.append(lost / sig)
         half = "tuning" if i in range(len(walks))[WALK_TUNING] else "held out"

@@ -149,6 +149,7 @@ class Tally:
             "floor": float(np.concatenate([r["floor"] for r in runs]).mean()),
             "ell95_pooled": float(np.mean(m2 <= 5.991)) if m2.size else None,
             "ell95_min_run": float(min(r["ell95"] for r in runs)),
+            "ell95_runs": [float(r["ell95"]) for r in runs],
             "nees_pooled": float(m2.mean()) if m2.size else None,
             "trusted_off_max_run": float(max(r["troff_max_agent"] for r in runs)),
             "trusted_mean": float(np.mean([r["trusted"] for r in runs])),

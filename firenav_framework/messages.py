@@ -262,6 +262,11 @@ class Odometry(Message):
     absolute pose at ``t`` in its own frame, for consumers that want it.
     ``motion`` labels the gait when known (``"walk"``, ``"stairs_up"``,
     ``"stairs_down"``, ``"stairs_down_backward"``, ``"crawl"``, ``"still"``).
+    ``yaw_drift_rate_sigma`` [rad/s] is the spread (one sigma) of a heading drift rate
+    about the vertical (ENU z) that lasts the mission: a constant per source, so it is
+    not in ``cov`` (the increments' covariance is step-to-step only) and a consumer
+    with a heading-drift state takes it as that state's prior; 0 when the source does
+    not say.
     """
 
     t_start: float
@@ -271,6 +276,7 @@ class Odometry(Message):
     position: np.ndarray
     heading: float
     motion: str = ""
+    yaw_drift_rate_sigma: float = 0.0
     kind: ClassVar[str] = "odometry"
 
     def __post_init__(self) -> None:

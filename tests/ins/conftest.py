@@ -30,25 +30,18 @@ def vicon_trial(shared_data: Path, name: str):
     return load_vicon_trial(shared_data / "pyshoe-vicon" / f"{name}.mat")
 
 
-@pytest.fixture(scope="session")
-def vicon_walk(shared_data: Path):
-    """A normal-walking PyShoe VICON trial."""
-    return vicon_trial(shared_data, "2017-11-22-11-22-03")
+def _trial_fixture(name: str, doc: str):
+    """A session fixture of the VICON trial ``name``."""
+    def fixture(shared_data: Path):
+        return vicon_trial(shared_data, name)
+    fixture.__doc__ = doc
+    return pytest.fixture(scope="session")(fixture)
 
 
-@pytest.fixture(scope="session")
-def vicon_run(shared_data: Path):
-    """A running PyShoe VICON trial (stance statistic 100x higher than walking)."""
-    return vicon_trial(shared_data, "2017-11-27-11-12-44")
-
-
-@pytest.fixture(scope="session")
-def vicon_crawl(shared_data: Path):
-    """A crawling PyShoe VICON trial (hands and knees: the boot rests upside down)."""
-    return vicon_trial(shared_data, "2018-02-22-10-09-36")
-
-
-@pytest.fixture(scope="session")
-def vicon_crawl_tuning(shared_data: Path):
-    """A crawling VICON trial of the tuning half (even index in name order)."""
-    return vicon_trial(shared_data, "2018-02-22-10-10-29")
+vicon_walk = _trial_fixture("2017-11-22-11-22-03", "A normal-walking PyShoe VICON trial.")
+vicon_run = _trial_fixture("2017-11-27-11-12-44", "A running PyShoe VICON trial (stance "
+                           "statistic 100x higher than walking).")
+vicon_crawl = _trial_fixture("2018-02-22-10-09-36", "A crawling PyShoe VICON trial (hands "
+                             "and knees: the boot rests upside down).")
+vicon_crawl_tuning = _trial_fixture("2018-02-22-10-10-29", "A crawling VICON trial of the "
+                                    "tuning half (even index in name order).")

@@ -50,31 +50,79 @@ def _straight(n: int, length: float, duration: float) -> list[Step]:
 
 def test_a_lasting_drift_and_scale_error_grow_as_a_constant_one_does():
     """N steps of length L and duration d along x: a constant drift rate r turns step k
-    by r k d, so the cross-track error is r L d N (N - 1) / 2; a constant scale error s
-    puts the along-track error at s N L; the floor adds to both."""
+    by r k d, so the error is L sum_k (cos(r k d) - 1, sin(r k d)): its second moment
+    over r ~ N(0, sigma_r^2), by dense numerical integration, and (small angles) the
+    linear r L d N (N - 1) / 2 across the track; a constant scale error s puts the
+    along-track error at s N L; the floor adds to both."""
     n, length, d = 40, 1.3, 1.1
     sigma_r, sigma_s, floor = math.radians(0.2), 0.03, 0.1
-    unc = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.0, length_sigma=0.0),
-                          sigma_r, sigma_s, floor)
+    unc = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.0, length_sigma=0.0,
+                                           yaw_drift_rate_sigma=sigma_r), sigma_s, floor)
     for st in _straight(n, length, d):
         cov = unc.step(st)
-    assert cov[1, 1] == pytest.approx((sigma_r * length * d * n * (n - 1) / 2) ** 2 + floor ** 2)
-    assert cov[0, 0] == pytest.approx((sigma_s * n * length) ** 2 + floor ** 2)
+    r = np.linspace(-8 * sigma_r, 8 * sigma_r, 20001)
+    pdf = np.exp(-0.5 * (r / sigma_r) ** 2)
+    pdf /= pdf.sum()
+    turned = np.outer(r, np.arange(n) * d)
+    along = length * (np.cos(turned) - 1).sum(axis=1)
+    across = length * np.sin(turned).sum(axis=1)
+    assert cov[1, 1] == pytest.approx(pdf @ across ** 2 + floor ** 2, rel=1e-6)
+    assert cov[0, 0] == pytest.approx(pdf @ along ** 2 + (sigma_s * n * length) ** 2
+                                      + floor ** 2, rel=1e-6)
+    assert cov[1, 1] == pytest.approx((sigma_r * length * d * n * (n - 1) / 2) ** 2
+                                      + floor ** 2, rel=0.03)
     assert cov[3, 3] == pytest.approx((sigma_r * n * d) ** 2)
 
 
-def test_the_odometry_errors_are_counted_once_and_the_drift_part_not_twice():
-    """The step-to-step parts come from the odometry's errors; its own lasting drift
-    (odometry.yaw_drift_sigma) is replaced by the rate state."""
+def test_a_heading_lost_for_good_spreads_the_error_along_the_track_too():
+    """Ten minutes at 0.17 deg/s: a heading sigma of 100 deg. Linearised, the error of a
+    straight 300 m walk would lie across the track only (a thin ellipse: what the
+    ten-minute run's ellipse missed, 43 % held); turned by the whole spread of
+    headings it is about as large along the track, and the cross-track variance is
+    below the linear one (a sine does not grow past 1)."""
+    n, length, d = 300, 1.0, 2.0
+    sigma_r = math.radians(0.17)
+    unc = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.0, length_sigma=0.0,
+                                           yaw_drift_rate_sigma=sigma_r), 0.0, 0.0)
+    for st in _straight(n, length, d):
+        cov = unc.step(st)
+    linear = (sigma_r * length * d * n * (n - 1) / 2) ** 2
+    assert cov[1, 1] < 0.5 * linear
+    assert 0.3 < cov[0, 0] / cov[1, 1] < 3.0
+
+
+def test_the_odometry_errors_are_the_poses_step_to_step_part():
+    """The step-to-step parts come from the odometry's errors, as the increments carry
+    them: with no lasting drift and no scale error the pose variance is their sum."""
     steps = _straight(10, 1.0, 1.0)
-    a = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.01, yaw_drift_sigma=0.5,
-                                         length_sigma=0.02), 0.0, 0.0, 0.0)
-    b = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.01, length_sigma=0.02), 0.0, 0.0, 0.0)
+    unc = PoseUncertainty(UnmodelledErrors(yaw_rate_sigma=0.01, length_sigma=0.02), 0.0, 0.0)
     for st in steps:
-        ca, cb = a.step(st), b.step(st)
-    np.testing.assert_allclose(ca, cb)
-    assert ca[3, 3] == pytest.approx(10 * 0.01 ** 2)
-    assert ca[0, 0] == pytest.approx(10 * 0.02 ** 2)
+        cov = unc.step(st)
+    assert cov[3, 3] == pytest.approx(10 * 0.01 ** 2)
+    assert cov[0, 0] == pytest.approx(10 * 0.02 ** 2)
+
+
+def test_yaw_drift_has_one_home_carried_on_the_odometry():
+    """One parameter, odometry.yaw_drift_rate_sigma: every odometry message carries it
+    (Odometry.yaw_drift_rate_sigma, rad/s), the poses' covariance counts it, and the
+    increments stay step-to-step only (the same covariance whatever the drift). Before,
+    odometry.yaw_drift_sigma went into the increments and integrity.yaw_drift_sigma, of
+    the same name, into the poses only."""
+    rate = math.radians(0.3)
+    with pytest.raises(Exception):
+        ZuptInsParams(integrity={"yaw_drift_sigma": rate})
+    default = ZuptInsParams().odometry.yaw_drift_rate_sigma
+    assert default == pytest.approx(math.radians(0.17))
+    runs = {r: run_component(ZuptInsEstimator, {"odometry": {"yaw_drift_rate_sigma": r}},
+                             blocks()) for r in (0.0, rate)}
+    for r, rec in runs.items():
+        assert rec.on("odometry") and all(o.yaw_drift_rate_sigma == r for o in rec.on("odometry"))
+    for a, b in zip(runs[0.0].on("odometry"), runs[rate].on("odometry")):
+        np.testing.assert_array_equal(a.cov, b.cov)
+    still, drifting = runs[0.0].on("pose")[-1], runs[rate].on("pose")[-1]
+    elapsed = drifting.t - runs[rate].on("odometry")[0].t_start
+    assert drifting.cov[3, 3] - still.cov[3, 3] == pytest.approx((rate * elapsed) ** 2, rel=0.05)
+    assert drifting.protection_radius > still.protection_radius
 
 
 def _walk_errors(shared_data: Path, params: ZuptInsParams, own_cov_only: bool):
@@ -105,3 +153,53 @@ def test_on_the_real_walks_the_ellipse_and_the_radius_hold_the_truth(shared_data
     err = np.concatenate([e.horizontal for e in now])
     assert np.mean(err <= np.concatenate([e.protection for e in now])) >= 0.95
     assert not np.any(np.concatenate([e.trusted for e in now]) & (err > 3.0))
+
+
+def test_fast_steps_add_a_lasting_drift_and_long_swings_a_horizontal_error():
+    """N straight steps of length L lasting d at speed v = L / d above speed_from v0: the
+    fast-gait rate (sigma q) turns step k by q (v - v0) d k, a cross-track error of
+    q (v - v0) d L N (N - 1) / 2 as for a constant drift; a step lasting D > long_swing
+    D0 adds (k (D - D0) L)^2 on either axis; walking steps (v <= v0, d <= D0) get
+    neither. (Small angles: the linear figures within 3 %.)"""
+    from firenav_plugins.estimators.zupt_ins.pose_uncertainty import FastGaitErrors
+    n, length, d = 20, 2.4, 0.75
+    q, v0, k = math.radians(0.5), 2.0, 0.05
+    fast = FastGaitErrors(speed_from=v0, speed_drift_sigma=q, long_swing=2.0,
+                          long_swing_sigma=k)
+    none = UnmodelledErrors(yaw_rate_sigma=0.0, length_sigma=0.0)
+    unc = PoseUncertainty(none, 0.0, 0.0, fast)
+    for st in _straight(n, length, d):
+        cov = unc.step(st)
+    rate = q * (length / d - v0)
+    assert cov[1, 1] == pytest.approx((rate * d * length * n * (n - 1) / 2) ** 2, rel=0.03)
+    assert cov[3, 3] == pytest.approx((rate * d * n) ** 2)
+    assert cov[0, 0] < 0.05 * cov[1, 1]                   # along the track: second order
+    long = PoseUncertainty(none, 0.0, 0.0, fast).step(_straight(1, 12.0, 5.0)[0])
+    assert long[0, 0] == pytest.approx((k * 3.0 * 12.0) ** 2)   # 2.4 m/s: drift from 0 heading
+    walking = PoseUncertainty(none, 0.0, 0.0, fast)
+    for st in _straight(n, 1.4, 1.1):
+        cov = walking.step(st)
+    np.testing.assert_allclose(cov, 0.0, atol=1e-15)
+
+
+@pytest.mark.parametrize("seed", [104, 113, 131])
+def test_a_simulated_3_m_s_run_is_not_trusted_while_more_than_3_m_off(seed):
+    """The gait set's 3 m/s run (tuning seeds where the poses were trusted 12-19 % of
+    the time while more than 3 m off): running drifts the heading several times faster
+    than walking (0.5 deg/s rms on the tuning seeds against 0.26 walking) and missed
+    zero-velocity updates lengthen a step by up to a third; the covariance now counts
+    both, so no pose more than 3 m off is trusted and the radius holds the error."""
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    from bench_ins_gaits import record, sim_integrity
+
+    from firenav_framework.evaluation.metrics import integrity_figures
+
+    rec = record("run", seed)
+    now = integrity_figures(sim_integrity(ZuptInsParams(), rec))
+    no_fast = integrity_figures(sim_integrity(ZuptInsParams(
+        integrity={"speed_drift_sigma": 0.0, "long_swing_sigma": 0.0}), rec))
+    assert no_fast["trusted_off_fraction"] > 0.05          # the failure, without the terms
+    assert now["trusted_off_fraction"] <= 0.02
+    assert now["protection_containment"] >= 0.95
+    assert now["nees_xy"] < no_fast["nees_xy"]
+    assert now["trusted_fraction"] > 0.3                   # not distrusted wholesale

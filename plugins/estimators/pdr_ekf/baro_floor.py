@@ -41,14 +41,15 @@ class BaroConfig:
     """``gate`` [m]: how near a floor's level the barometer must be to learn its offset
     there; ``window`` [s] and ``still_range`` [m]: on a level; ``offset_sigma`` [m] the
     offset's initial 1-sigma; ``offset_rw`` [m/sqrt(s)] its random walk; ``noise`` [m]
-    the short-term noise of one height report."""
+    the short-term noise of one height report. The values (and their defaults) are the
+    pdr_ekf ``barometer`` parameters' (``params.Barometer.config``)."""
 
-    gate: float = 1.2
-    window: float = 4.0
-    still_range: float = 0.5
-    offset_sigma: float = 1.0
-    offset_rw: float = 0.01
-    noise: float = 0.15
+    gate: float
+    window: float
+    still_range: float
+    offset_sigma: float
+    offset_rw: float
+    noise: float
 
 
 @dataclass

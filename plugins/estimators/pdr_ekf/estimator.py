@@ -572,16 +572,15 @@ class PdrEkfEstimator(Estimator):
         self._tag_level(agent, st, t, site, z[2], dz)
         relocate = p.rfid.relocate_heading_sigma if p.rfid.on_gate == "relocate" else None
         res = st.filt.update_position(z, Rm, D, dz, C, gate=gate, relocate=relocate)
-        place = f"({z[0]:.1f}, {z[1]:.1f}) floor {site.floor}"
+        off = (f"tag {tag_id} at {site.id} ({z[0]:.1f}, {z[1]:.1f}) floor {site.floor} is "
+               f"{np.hypot(*res.innovation[:2]):.1f} m from {agent}'s estimate "
+               f"({math.sqrt(res.nis):.1f} sigma)")
         if res.relocated:
             st.contradicted = True
             self.ctx.count("tag_relocations")
             self.ctx.diagnose(t, "warning", "tag_relocation",
-                              f"tag {tag_id} at {site.id} {place} is "
-                              f"{np.hypot(*res.innovation[:2]):.1f} m from {agent}'s estimate "
-                              f"({math.sqrt(res.nis):.1f} sigma): the track had drifted; "
-                              "re-located at the tag, not trusted until a tag agrees",
-                              agent=agent)
+                              f"{off}: the track had drifted; re-located at the tag, not "
+                              "trusted until a tag agrees", agent=agent)
         if res.applied:
             self.ctx.count("tag_updates")
             if not res.relocated and candidates is None:
@@ -592,11 +591,8 @@ class PdrEkfEstimator(Estimator):
         st.contradicted = True
         self.ctx.count("tag_updates_rejected")
         self.ctx.diagnose(t, "warning", "tag_rejected",
-                          f"tag {tag_id} at {site.id} {place} is "
-                          f"{np.hypot(*res.innovation[:2]):.1f} m from {agent}'s estimate "
-                          f"({math.sqrt(res.nis):.1f} sigma): not used (a duplicated tag id, "
-                          "or a wrong association?); not trusted until a tag agrees",
-                          agent=agent)
+                          f"{off}: not used (a duplicated tag id, or a wrong association?); "
+                          "not trusted until a tag agrees", agent=agent)
         return False
 
     def _stair_end(self, agent: str, st: _Agent, t: float, site: TagSite, level: float) -> None:

@@ -301,7 +301,8 @@ class ZuptInsEstimator(Estimator):
         self.ctx.publish("odometry", Odometry(
             t=step.t, agent=agent, device=dev.device, t_start=step.t_start, delta=step.delta,
             dheading=step.dheading, cov=step.cov, position=step.position,
-            heading=step.heading, motion=step.motion))
+            heading=step.heading, motion=step.motion,
+            yaw_drift_rate_sigma=dev.steps.unmodelled.yaw_drift_rate_sigma))
         placed = self.placement(agent)
         pos, heading, cov = placed.apply(step.position, step.heading,
                                          dev.uncertainty.step(step))

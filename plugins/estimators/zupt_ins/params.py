@@ -21,7 +21,7 @@ from firenav_framework.integrity import IntegrityParams
 
 from ..start_pose import start_pose_type
 from . import detectors, eskf
-from .pose_uncertainty import PoseUncertainty
+from .pose_uncertainty import FastGaitErrors, PoseUncertainty
 from .steps import GaitThresholds, UnmodelledErrors
 
 G_STANDARD = 9.80665
@@ -210,43 +210,54 @@ class Gait(Params):
 
 
 class OdometryNoise(Params):
-    """Errors the filter does not estimate, added to each step's covariance."""
+    """Errors the filter does not estimate: the step-to-step ones are added to each
+    step's covariance; the lasting heading drift is published beside it."""
 
     yaw_rate_sigma: AngularRate = param(0.05 * DEG, unit="rad/s", ge=0, description=(
         "turn-rate error independent from step to step, added to each step's heading "
         "variance as (sigma * step duration)^2"))
-    yaw_drift_sigma: AngularRate = param(0.0, unit="rad/s", ge=0, description=(
-        "spread of the heading drift rate that lasts the mission (residual and "
-        "vibration-rectified gyro bias): a step from t0 to t1 [s since navigation began] "
-        "adds sigma^2 (t1^2 - t0^2) to its heading variance, so the increments' summed "
-        "variance is (sigma t)^2"))
     length_sigma: float = param(0.02, unit="1", ge=0, lt=1, description=(
         "relative step-length error added along each step's displacement covariance"))
+    yaw_drift_rate_sigma: AngularRate = param(0.17 * DEG, unit="rad/s", ge=0, description=(
+        "spread of the heading drift rate that lasts the mission (residual and "
+        "vibration-rectified gyro bias): published on every odometry message "
+        "(Odometry.yaw_drift_rate_sigma, for consumers with a drift state) and counted "
+        "in the poses' covariance; not in the increments' (it is no step-to-step error)"))
 
     def errors(self) -> UnmodelledErrors:
         return UnmodelledErrors(yaw_rate_sigma=self.yaw_rate_sigma,
-                                yaw_drift_sigma=self.yaw_drift_sigma, length_sigma=self.length_sigma)
+                                length_sigma=self.length_sigma,
+                                yaw_drift_rate_sigma=self.yaw_drift_rate_sigma)
 
 
 class PoseIntegrity(IntegrityParams):
     """The ``pose`` and ``state`` outputs' covariance, protection radius and ``trusted``
-    (``pose_uncertainty``): the odometry's step-to-step errors accumulated, and the
-    heading drift that lasts."""
+    (``pose_uncertainty``): the odometry's errors (step-to-step and the lasting heading
+    drift) accumulated, and the step-length scale error that lasts."""
 
-    yaw_drift_sigma: AngularRate = param(0.17 * DEG, unit="rad/s", ge=0, description=(
-        "spread of the heading drift rate that lasts the mission, counted in the poses' "
-        "covariance (not in the odometry increments': odometry.yaw_drift_sigma)"))
     scale_sigma: float = param(0.03, unit="1", ge=0, lt=1, description="spread of the "
                                "step-length scale error that lasts the mission (all steps "
                                "alike)")
     position_sigma: float = param(0.1, unit="m", ge=0, description="horizontal floor of "
                                   "the poses' uncertainty: the IMU is not the point tracked "
                                   "(a footprint, the wearer)")
+    speed_from: float = param(2.0, unit="m/s", ge=0, description="step speed above which "
+                              "the fast-gait heading drift acts (running)")
+    speed_drift_sigma: float = param(0.5 * DEG, unit="rad/s per m/s", ge=0, description=(
+        "spread of a heading drift rate that lasts the mission and acts in proportion to "
+        "the step speed above speed_from (impacts: gyro g-sensitivity, vibration "
+        "rectification, saturation)"))
+    long_swing: float = param(2.0, unit="s", gt=0, description="a step lasting longer "
+                              "missed zero-velocity updates (integrated unaided)")
+    long_swing_sigma: float = param(0.05, unit="1/s", ge=0, description="horizontal error "
+                                    "of such a step, relative to its length, per second "
+                                    "beyond long_swing (each axis)")
 
     def uncertainty(self, errors: UnmodelledErrors) -> PoseUncertainty:
-        """A fresh :class:`PoseUncertainty` with the odometry's step-to-step ``errors``."""
-        return PoseUncertainty(errors, self.yaw_drift_sigma, self.scale_sigma,
-                               self.position_sigma)
+        """A fresh :class:`PoseUncertainty` with the odometry's ``errors``."""
+        return PoseUncertainty(errors, self.scale_sigma, self.position_sigma, FastGaitErrors(
+            speed_from=self.speed_from, speed_drift_sigma=self.speed_drift_sigma,
+            long_swing=self.long_swing, long_swing_sigma=self.long_swing_sigma))
 
 
 class Outputs(Params):

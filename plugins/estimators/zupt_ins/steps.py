@@ -44,38 +44,33 @@ class GaitThresholds:
 
 @dataclass(frozen=True)
 class UnmodelledErrors:
-    """Errors the filter does not estimate, added to every step's increment covariance.
+    """Errors the filter does not estimate.
 
     Without bias states the filter's heading variance grows only with gyro white noise
     (hundredths of a degree per step), while the heading of a real foot INS drifts at a
     rate of its own for the whole mission (a residual and vibration-rectified gyro bias);
-    step lengths carry a scale error the ZUPTs cannot see. Downstream estimators weigh
-    odometry by this covariance and add the increments' variances up, so it must not be
-    optimistic over a mission:
+    step lengths carry an error the ZUPTs cannot see. Downstream estimators weigh
+    odometry by the increments' covariance, so it must not be optimistic:
 
     * ``yaw_rate_sigma`` [rad/s]: a turn-rate error independent from step to step,
-      ``(sigma * duration)^2`` per step;
-    * ``yaw_drift_sigma`` [rad/s]: the spread of a drift rate that lasts: a step from
-      ``t0`` to ``t1`` (seconds since navigation began) adds
-      ``sigma^2 (t1^2 - t0^2)``, so the summed heading variance of the increments is
-      ``(sigma * t)^2``, that of a constant drift, at every time ``t``;
-    * ``length_sigma`` [-]: relative step-length error, along the step.
+      ``(sigma * duration)^2`` added to each step's heading variance;
+    * ``length_sigma`` [-]: relative step-length error, along the step;
+    * ``yaw_drift_rate_sigma`` [rad/s]: the spread of the heading drift rate (about the
+      vertical) that lasts the mission. One constant per mission, so it is no
+      step-to-step error and is not in the increments' covariance: the odometry carries
+      it as ``Odometry.yaw_drift_rate_sigma`` for consumers with a drift state, and the
+      INS's own poses count it (``pose_uncertainty``).
     """
 
     yaw_rate_sigma: float = math.radians(0.05)   # [rad/s] step-to-step turn-rate error
-    yaw_drift_sigma: float = 0.0                 # [rad/s] spread of the lasting drift rate
     length_sigma: float = 0.02                   # [-] relative step-length error
+    yaw_drift_rate_sigma: float = 0.0            # [rad/s] spread of the lasting drift rate
 
-    def inflate(self, cov: np.ndarray, delta: np.ndarray, duration: float,
-                elapsed: float | None = None) -> np.ndarray:
-        """``cov`` (4, 4) of (dx, dy, dz, dheading) plus these errors over one step of
-        ``duration`` [s] ending ``elapsed`` [s] after navigation began (default: the step
-        is the first, ``elapsed = duration``)."""
-        duration = max(duration, 0.0)
-        t1 = duration if elapsed is None else max(elapsed, duration)
+    def inflate(self, cov: np.ndarray, delta: np.ndarray, duration: float) -> np.ndarray:
+        """``cov`` (4, 4) of (dx, dy, dz, dheading) plus the step-to-step errors of one
+        step ``delta`` (3,) [m] lasting ``duration`` [s]."""
         out = cov.copy()
-        out[3, 3] += (self.yaw_rate_sigma * duration) ** 2
-        out[3, 3] += self.yaw_drift_sigma ** 2 * (t1 * t1 - (t1 - duration) ** 2)
+        out[3, 3] += (self.yaw_rate_sigma * max(duration, 0.0)) ** 2
         out[:3, :3] += (self.length_sigma ** 2) * np.outer(delta, delta)  # along the step
         return out
 
@@ -114,7 +109,6 @@ class StepTracker:
         self.heading = 0.0
         self._yaw_sum = np.zeros(2)
         self._yaw_n = 0
-        self._t_nav: float | None = None   # [s] navigation start: the first event's t_start
 
     @property
     def mount_yaw(self) -> float | None:
@@ -150,12 +144,9 @@ class StepTracker:
             self._yaw_sum += (math.cos(off), math.sin(off))
             self._yaw_n += 1
         t, t_start = float(ev[eskf.E_T]), float(ev[eskf.E_T_PREV])
-        if self._t_nav is None:
-            self._t_nav = t_start
         step = Step(t=t, t_start=t_start, delta=delta, dheading=dheading,
                     cov=self.unmodelled.inflate(
-                        ev[eskf.E_COV_INC:eskf.E_COV_INC + 16].reshape(4, 4), delta, t - t_start,
-                        t - self._t_nav),
+                        ev[eskf.E_COV_INC:eskf.E_COV_INC + 16].reshape(4, 4), delta, t - t_start),
                     position=pos, heading=yaw,
                     cov_abs=ev[eskf.E_COV_ABS:eskf.E_COV_ABS + 16].reshape(4, 4).copy(),
                     motion=motion, tilt=tilt, swing_samples=int(ev[eskf.E_SWING_N]),

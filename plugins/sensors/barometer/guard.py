@@ -22,12 +22,13 @@ Verdict = Literal["ok", "stuck", "jump", "offset_jump"]
 
 @dataclass(frozen=True)
 class GuardConfig:
-    """See the module docstring; pressures [Pa], rate [Pa/s], time [s]."""
+    """See the module docstring; pressures [Pa], rate [Pa/s], time [s]. The values (and
+    their defaults) are the barometer sensor's parameters."""
 
-    stuck_readings: int = 20
-    max_step: float = 100.0
-    max_rate: float = 30.0
-    rejump_s: float = 5.0
+    stuck_readings: int
+    max_step: float
+    max_rate: float
+    rejump_s: float
 
 
 @dataclass
