@@ -74,7 +74,7 @@ HEADING_PRIOR = np.diag([0.035, 0.009, 0.02]) ** 2
 HEADING_WALK = np.diag([1e-4, 1e-4, 1e-3]) ** 2
 DRIFT_RATE_SIGMA = 0.005
 #: Updates from the start of a refactorisation on the worker thread to its hand-over.
-REBUILD_LAG = 10
+REBUILD_LAG = 20
 
 
 @dataclass

@@ -156,7 +156,7 @@ class GeneralizedElectricalNetwork:
     def __init__(self, dim: int = 3, *, eps: float = 1e-6, relinearize_sigma: float = 0.1,
                  max_active_dims: int = 900, hot_nodes: int = 150,
                  incremental: bool = True, rebuild_lag: int = 0,
-                 background_dims: int = 1000) -> None:
+                 background_dims: int = 300) -> None:
         if rebuild_lag < 0 or background_dims < 0:
             raise ValueError(f"rebuild_lag ({rebuild_lag}) and background_dims "
                              f"({background_dims}) must be >= 0")
