@@ -33,14 +33,19 @@ At the end: the incremental estimates against the batch optimum of the same non-
 problem (ours, and GTSAM's LM), and on the graph without ranges (linear) the incremental
 estimates against the batch BLUE. BLAS runs single-threaded (small dense updates).
 
-Before/after in one run: ``--compare DIR`` times only ours (with and without heading
-states) in this checkout and in another one (e.g. a ``git worktree`` of an older commit),
+Before/after in one run: ``--compare DIR [DIR ...]`` times only ours (with and without
+heading states) in other checkouts (e.g. ``git archive`` of older commits) and in this one,
 alternating, each in a fresh process, wall and CPU time (``time.thread_time``) per
-update: the CPU column is what the update costs, the wall column adds what the machine's
-other jobs took from it.
+update: the CPU column is what the update costs on its own thread, the wall column adds
+what the machine's other jobs took from it and any wait for the refactorisation worker.
+
+Refactorisations run on a worker thread and are handed over ``--rebuild-lag`` (20)
+updates after they start (0: on the update's own thread), where the checkout's GEN has
+that option. The updates are fed back to back, or with ``--pace 1`` at their data rate
+(20 firefighters, a step each per second), as a live pipeline gets them.
 
 Run: ``.venv/bin/python benchmarks/bench_breadcrumb_graph.py [--seed 0] [--quick]
-[--heading-states] [--compare DIR]``
+[--heading-states] [--compare DIR ...] [--pace X] [--rebuild-lag N]``
 """
 from __future__ import annotations
 

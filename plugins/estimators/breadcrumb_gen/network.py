@@ -727,7 +727,9 @@ class GeneralizedElectricalNetwork:
         The new linearisation is applied in the information form, by re-assembling
         ``L`` and ``b`` (eqs. 20, 21) and refactorising: removing an old linearisation
         from a covariance by a negative update is numerically unstable when the
-        direction changed a lot, adding information is not.
+        direction changed a lot, adding information is not. While a background
+        refactorisation is pending this call only counts towards its hand-over (and
+        returns 0): edges that went stale meanwhile are found at the next call after it.
         """
         if self.rebuild_pending:
             self._handover_in -= 1
