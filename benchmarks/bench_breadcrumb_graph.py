@@ -33,18 +33,24 @@ At the end: the incremental estimates against the batch optimum of the same non-
 problem (ours, and GTSAM's LM), and on the graph without ranges (linear) the incremental
 estimates against the batch BLUE. BLAS runs single-threaded (small dense updates).
 
-Before/after in one run: ``--compare DIR`` times only ours (with and without heading
-states) in this checkout and in another one (e.g. a ``git worktree`` of an older commit),
+Before/after in one run: ``--compare DIR [DIR ...]`` times only ours (with and without
+heading states) in other checkouts (e.g. ``git archive`` of older commits) and in this one,
 alternating, each in a fresh process, wall and CPU time (``time.thread_time``) per
-update: the CPU column is what the update costs, the wall column adds what the machine's
-other jobs took from it.
+update: the CPU column is what the update costs on its own thread, the wall column adds
+what the machine's other jobs took from it and any wait for the refactorisation worker.
+
+Refactorisations run on a worker thread and are handed over ``--rebuild-lag`` (20)
+updates after they start (0: on the update's own thread), where the checkout's GEN has
+that option. The updates are fed back to back, or with ``--pace 1`` at their data rate
+(20 firefighters, a step each per second), as a live pipeline gets them.
 
 Run: ``.venv/bin/python benchmarks/bench_breadcrumb_graph.py [--seed 0] [--quick]
-[--heading-states] [--compare DIR]``
+[--heading-states] [--compare DIR ...] [--pace X] [--rebuild-lag N]``
 """
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import os
 import subprocess
@@ -72,6 +78,8 @@ ENCOUNTER_SIGMA = 0.75
 HEADING_PRIOR = np.diag([0.035, 0.009, 0.02]) ** 2
 HEADING_WALK = np.diag([1e-4, 1e-4, 1e-3]) ** 2
 DRIFT_RATE_SIGMA = 0.005
+#: Updates from the start of a refactorisation on the worker thread to its hand-over.
+REBUILD_LAG = 20
 
 
 @dataclass
@@ -86,6 +94,7 @@ class Update:
     encounters: list[str] = field(default_factory=list)   # nodes passed within 1.5 m
     drop: str | None = None               # breadcrumb dropped at this state
     psi: float = 0.0                      # true heading error of the odometry [rad]
+    t: float = 0.0                        # data time of the state [s] (one step per second)
 
 
 def make_graph(seed: int = 0, agents: int = 20, steps: int = 95, bc_spacing: float = 6.0,
@@ -130,7 +139,7 @@ def make_graph(seed: int = 0, agents: int = 20, steps: int = 95, bc_spacing: flo
             key = f"ff{a}@{s}"
             truth[key] = pos[a].copy()
             up = Update(key, last[a], step + rng.normal(0, sig_odo, 3), sig_odo ** 2 * np.eye(3),
-                        psi=float(drift[a] * (s + 1)))
+                        psi=float(drift[a] * (s + 1)), t=float(s + 1))
             last[a] = key
             statics = ["base", *crumbs]
             sp_ = np.array([truth[c] for c in statics])
@@ -197,15 +206,29 @@ def add_encounters_and_drop(gen: GeneralizedElectricalNetwork, up: Update) -> No
         gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
 
 
+def new_network(rebuild_lag: int) -> GeneralizedElectricalNetwork:
+    """The GEN with its defaults and refactorisations handed over ``rebuild_lag`` updates
+    after they start (on a worker thread), where the checkout's GEN has that option."""
+    if "rebuild_lag" in inspect.signature(GeneralizedElectricalNetwork).parameters:
+        return GeneralizedElectricalNetwork(3, rebuild_lag=rebuild_lag)
+    return GeneralizedElectricalNetwork(3)
+
+
 def run_ours(updates: list[Update], linear_only: bool = False, heading_states: bool = False,
-             cpu: np.ndarray | None = None) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
+             cpu: np.ndarray | None = None, pace: float = 0.0, rebuild_lag: int = REBUILD_LAG
+             ) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
     """Our incremental GEN, one timed update per firefighter step (``linear_only``: the
     ranges left out, so that the batch BLUE is exact without iterations); wall seconds
-    per update, and the CPU seconds into ``cpu`` when given."""
-    gen = GeneralizedElectricalNetwork(3)
+    per update, and the CPU seconds into ``cpu`` when given. ``pace`` > 0 feeds the
+    updates at ``pace`` times their data rate (1: live, 20 firefighters a step each per
+    second) instead of back to back."""
+    gen = new_network(rebuild_lag)
     gen.add_anchor("base", np.zeros(3))
     lat = np.zeros(len(updates))
+    start = time.perf_counter()
     for k, up in enumerate(updates):
+        if pace > 0:
+            time.sleep(max(0.0, start + up.t / pace - time.perf_counter()))
         t0 = time.perf_counter()
         c0 = time.thread_time()
         new = add_odometry(gen, up, heading_states)
@@ -379,37 +402,45 @@ def max_diff(a: dict, b: dict) -> float:
     return float(max(np.max(np.abs(np.asarray(a[k]) - np.asarray(b[k]))) for k in common))
 
 
-def time_ours(seed: int, steps: int, heading_states: bool) -> dict:
+def time_ours(seed: int, steps: int, heading_states: bool, pace: float = 0.0,
+              rebuild_lag: int = REBUILD_LAG) -> dict:
     """Wall and CPU per update [ms] of ours on the graph of ``seed`` (for ``--compare``)."""
     updates, _ = make_graph(seed, steps=steps)
     cpu = np.zeros(len(updates))
-    gen, lat = run_ours(updates, heading_states=heading_states, cpu=cpu)
+    gen, lat = run_ours(updates, heading_states=heading_states, cpu=cpu, pace=pace,
+                        rebuild_lag=rebuild_lag)
     return {"wall": (1e3 * lat).tolist(), "cpu": (1e3 * cpu).tolist(),
-            "rebuilds": gen.solver.rebuilds}
+            "rebuilds": gen.solver.rebuilds,
+            "background": getattr(gen, "background_rebuilds", 0)}
 
 
-def ours_in_checkout(path: str, seed: int, steps: int, heading_states: bool) -> dict:
+def ours_in_checkout(path: str, seed: int, steps: int, heading_states: bool,
+                     pace: float = 0.0, rebuild_lag: int = REBUILD_LAG) -> dict:
     """:func:`time_ours` run by the GEN of the checkout at ``path``, in a fresh process."""
     here = os.path.dirname(os.path.abspath(__file__))
     code = ("import json, sys; sys.path.insert(0, %r); import bench_breadcrumb_scaling as s; "
             "s.use_checkout(%r); import bench_breadcrumb_graph as g; "
-            "print(json.dumps(g.time_ours(%d, %d, %r)))" % (here, path, seed, steps,
-                                                            heading_states))
+            "print(json.dumps(g.time_ours(%d, %d, %r, %r, %d)))"
+            % (here, path, seed, steps, heading_states, pace, rebuild_lag))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=path)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def compare(other: str, seed: int, steps: int) -> None:
-    """Ours here and in checkout ``other``, alternating, wall and CPU per update."""
+def compare(others: list[str], seed: int, steps: int, pace: float, rebuild_lag: int) -> None:
+    """Ours in the checkouts ``others`` and here, alternating, wall and CPU per update."""
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    feed = f"paced at {pace:g}x the data rate" if pace > 0 else "back to back"
+    print(f"updates {feed}; this checkout hands refactorisations over {rebuild_lag} "
+          "updates after they start")
     for heading in (False, True):
-        for name, path in (("before", other), ("this", here)):
-            r = ours_in_checkout(path, seed, steps, heading)
-            print(f"{name:6s} {'heading states' if heading else 'positions only':14s} "
+        for path in (*others, here):
+            name = "this" if path == here else os.path.basename(os.path.normpath(path))
+            r = ours_in_checkout(path, seed, steps, heading, pace, rebuild_lag)
+            print(f"{name:10s} {'heading states' if heading else 'positions only':14s} "
                   f"wall: {stats(np.array(r['wall']) / 1e3)} | CPU: "
-                  f"{stats(np.array(r['cpu']) / 1e3)} [{r['rebuilds']} refactorisations]",
-                  flush=True)
+                  f"{stats(np.array(r['cpu']) / 1e3)} [{r['rebuilds']} refactorisations, "
+                  f"{r['background']} on the worker]", flush=True)
 
 
 def main() -> None:
@@ -420,12 +451,17 @@ def main() -> None:
                     help="time the sparse batch BLUE after every Nth update")
     ap.add_argument("--heading-states", action="store_true",
                     help="also time the graph with the plugin's heading states")
-    ap.add_argument("--compare", default="", help="only ours, here and in this checkout "
-                    "(before/after in one run)")
+    ap.add_argument("--compare", nargs="+", default=[], metavar="DIR", help="only ours, in "
+                    "these checkouts and here (before/after in one run)")
+    ap.add_argument("--pace", type=float, default=0.0, help="feed the updates at this "
+                    "multiple of their data rate (1 = live) instead of back to back")
+    ap.add_argument("--rebuild-lag", type=int, default=REBUILD_LAG, help="updates from the "
+                    "start of a refactorisation on the worker thread to its hand-over "
+                    "(0: refactorise on the update's own thread)")
     args = ap.parse_args()
     steps = 20 if args.quick else 95
     if args.compare:
-        compare(args.compare, args.seed, steps)
+        compare(args.compare, args.seed, steps, args.pace, args.rebuild_lag)
         return
     updates, truth = make_graph(args.seed, steps=steps)
     n_nodes = 1 + len(updates) + sum(u.drop is not None for u in updates)
@@ -435,7 +471,7 @@ def main() -> None:
           f"({sum(len(u.ranges) for u in updates)} ranges, "
           f"{sum(len(u.encounters) for u in updates)} encounters), 20 agents, seed {args.seed}")
 
-    (gen, lat), cpu = with_cpu(run_ours, updates)
+    (gen, lat), cpu = with_cpu(run_ours, updates, pace=args.pace, rebuild_lag=args.rebuild_lag)
     print(f"ours (incremental GEN)     {stats(lat)}   "
           f"[{gen.solver.rebuilds} refactorisations, {gen.relinearised} relinearisations; "
           f"CPU {cpu:.1f} s, wall {lat.sum():.1f} s]")
@@ -460,7 +496,8 @@ def main() -> None:
           f"vs batch BLUE max |dx| = {max_diff(lin.estimates(), ref):.1e} m")
 
     if args.heading_states:
-        (hs, lat_h), cpu_h = with_cpu(run_ours, updates, heading_states=True)
+        (hs, lat_h), cpu_h = with_cpu(run_ours, updates, heading_states=True, pace=args.pace,
+                                      rebuild_lag=args.rebuild_lag)
         print(f"with heading states: ours {stats(lat_h)}   [{hs.solver.rebuilds} "
               f"refactorisations, {hs.relinearised} relinearisations; CPU {cpu_h:.1f} s, "
               f"wall {lat_h.sum():.1f} s]")

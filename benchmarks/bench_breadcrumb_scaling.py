@@ -38,20 +38,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from breadcrumb_walks import loop_path  # noqa: E402
+
 BASE = np.array([0.0, 0.0, 1.0])
 CRUMBS = {f"bc{k}": xy for k, xy in enumerate(
     [(10.0, 0.0), (20.0, 0.0), (30.0, 0.0), (40.0, 5.0), (30.0, 10.0), (20.0, 10.0),
      (10.0, 10.0), (0.0, 5.0)], start=1)}
-
-
-def ring(laps: int) -> np.ndarray:
-    corners = np.array([[0, 0], [40, 0], [40, 10], [0, 10], [0, 0]], float)
-    pts = [corners[0]]
-    for _ in range(laps):
-        for a, b in zip(corners[:-1], corners[1:]):
-            n = int(np.linalg.norm(b - a))
-            pts.extend(a + (b - a) * k / n for k in range(1, n + 1))
-    return np.array(pts)
 
 
 def mission(agents: int, laps: int, seed: int = 0) -> list:
@@ -60,7 +52,7 @@ def mission(agents: int, laps: int, seed: int = 0) -> list:
     rng = np.random.default_rng(seed)
     events = []
     dropped: set[str] = set()
-    path = ring(laps)
+    path = loop_path(laps)[:, :2]
     for a in range(agents):
         ff = f"ff{a + 1}"
         t0 = 10.0 + 7.0 * a

@@ -11,19 +11,10 @@ from firenav_framework import BreadcrumbDrop, Odometry, Range
 from firenav_framework.testing import check_plugin, make_component, run_component
 from firenav_plugins.estimators.breadcrumb_gen import BreadcrumbGenEstimator
 
+from benchmarks.breadcrumb_walks import loop_path
+
 BASE = np.array([0.0, 0.0, 1.0])
 CRUMBS = {"bc1": (20.0, 0.0), "bc2": (40.0, 5.0), "bc3": (20.0, 10.0), "bc4": (0.0, 5.0)}
-
-
-def loop_path(laps: int) -> np.ndarray:
-    """True foot positions, 1 m apart, around a 40 m x 10 m loop from the base corner."""
-    corners = np.array([[0, 0], [40, 0], [40, 10], [0, 10], [0, 0]], float)
-    pts = [corners[0]]
-    for _ in range(laps):
-        for a, b in zip(corners[:-1], corners[1:]):
-            n = int(np.linalg.norm(b - a))
-            pts.extend(a + (b - a) * k / n for k in range(1, n + 1))
-    return np.c_[np.array(pts), np.zeros(len(pts))]
 
 
 def walk(laps: int = 3, drift_deg_per_lap: float = 10.0, seed: int = 0, kick: bool = False):

@@ -36,10 +36,13 @@ def assert_matches_dense(gen: GeneralizedElectricalNetwork, dense: DenseGraph) -
         np.testing.assert_allclose(bulk[key], est[key], atol=TOL, rtol=0)
 
 
-def build_random(seed: int, n: int, max_active_dims: int, extra: int = 2, anchors: int = 1):
-    """A random graph with loops, built node by node, checked against the dense BLUE."""
+def build_random(seed: int, n: int, max_active_dims: int, extra: int = 2, anchors: int = 1,
+                 **options):
+    """A random graph with loops, built node by node, checked against the dense BLUE
+    (``options``: more arguments of the network)."""
     rng = np.random.default_rng(seed)
-    gen = GeneralizedElectricalNetwork(3, max_active_dims=max_active_dims, hot_nodes=4)
+    gen = GeneralizedElectricalNetwork(3, max_active_dims=max_active_dims, hot_nodes=4,
+                                       **options)
     dense = DenseGraph(3)
     names = []
     for a in range(anchors):

@@ -115,7 +115,9 @@ class BreadcrumbGenEstimator(Estimator):
         p = self.params
         self.gen = GeneralizedElectricalNetwork(3, relinearize_sigma=p.graph.relinearize_sigma,
                                                 max_active_dims=p.graph.max_active_dims,
-                                                hot_nodes=max(8, p.graph.max_active_dims // 12))
+                                                hot_nodes=max(8, p.graph.max_active_dims // 12),
+                                                rebuild_lag=p.graph.rebuild_lag,
+                                                background_dims=p.graph.background_dims)
         self._agents: dict[str, _Agent] = {}
         self._crumbs: dict[str, str] = {}             # breadcrumb id -> current graph node
         self._kicks: dict[str, int] = {}              # breadcrumb id -> relocations so far
@@ -625,6 +627,8 @@ class BreadcrumbGenEstimator(Estimator):
         nodes = [state.key] if state.heading is None else [state.key, state.heading]
         x = self.gen.estimates_of(nodes)                 # one query for position and heading
         c = self.gen.covariances_of(nodes)
+        if self.gen.rebuild_pending:
+            self.ctx.count("poses_while_refactorising")
         cov = np.zeros((4, 4))
         cov[:3, :3] = c[0]
         heading = msg.heading + self.params.odometry.rotation.get(msg.agent, 0.0)
@@ -669,12 +673,15 @@ class BreadcrumbGenEstimator(Estimator):
                 protection_radius=pr, trusted=trusted(pr, self.params.integrity)))
 
     def finish(self) -> None:
+        self.gen.finish_rebuild()
         for agent, st in self._agents.items():
             self._release(agent, st, final=True)
         t = max((st.states[-1].t for st in self._agents.values() if st.states), default=0.0)
         crumbs = self._crumb_ids()
         self._publish_crumbs(t, list(crumbs), crumbs)
         self.ctx.count("graph_rebuilds", self.gen.solver.rebuilds)
+        if self.gen.background_rebuilds:
+            self.ctx.count("graph_background_rebuilds", self.gen.background_rebuilds)
 
 
 def _nearest_state(st: _Agent, t: float) -> _State:

@@ -26,18 +26,81 @@ graph with that edge (likewise for any edge ``x_n = z + sum G_m x_m``). Deleting
 (marginalisation, eqs. 15/17) leaves the others' marginal untouched, so the solver only
 hides it until the next rebuild, where the network passes the Schur-complemented system.
 
+A rebuild can also run *in the background* (:meth:`IncrementalBlue.start_rebuild`): the
+sparse factorisation of the assembled system runs on a worker thread (SuperLU and LAPACK
+release the GIL) while the current factor and active set keep serving every operation;
+those operations are logged, and :meth:`IncrementalBlue.finish_rebuild` installs the new
+factor and replays the log on it. The result is the same as a rebuild at the snapshot
+followed by the same operations, whatever the worker's timing: the caller chooses the
+hand-over point, so a replay of the same inputs gives identical numbers.
+
 Nodes are small integers (the network's node ids); ``d`` is the block size (3 in the
 paper: x, y, z).
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+import threading
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .batch import TrailingFactor, factorize
+
+
+class Refactorisation:
+    """The sparse factorisation of an assembled Kirchhoff system ``L x = b`` and its solution
+    ``x_f``, ready for :meth:`IncrementalBlue.install` (computed on any thread).
+
+    ``nodes`` are the node ids of the blocks of ``L`` in order (``dim`` dims each); the
+    ``hot`` nodes among them are eliminated last and their joint covariance read off the
+    factor's trailing block (:class:`~.batch.TrailingFactor`).
+    """
+
+    def __init__(self, L: sp.spmatrix, b: np.ndarray, nodes: Sequence[int],
+                 hot: Sequence[int], dim: int) -> None:
+        self.nodes = np.asarray(nodes, np.int64)
+        block = {int(n): k for k, n in enumerate(self.nodes)}
+        self.hot = [int(h) for h in dict.fromkeys(hot) if int(h) in block]
+        self.hdims = (np.array([block[h] for h in self.hot], np.int64)[:, None] * dim
+                      + np.arange(dim)).ravel()
+        b = np.asarray(b, float)
+        L = sp.csc_matrix(L)
+        L.sum_duplicates()
+        if not len(self.nodes):
+            self.lu: spla.SuperLU | TrailingFactor | None = None
+            self.xf = np.zeros(0)
+        elif not self.hot:
+            self.lu = factorize(L)
+            self.xf = self.lu.solve(b)
+        else:
+            self.lu = TrailingFactor(L, self.hdims)
+            self.xf = self.lu.solve(b)
+
+
+class _Worker(threading.Thread):
+    """Assembles and factorises one system off the caller's thread (errors kept for
+    :meth:`result`); ``assemble`` returns an object with ``L``, ``b`` and ``nodes``."""
+
+    def __init__(self, assemble: Callable[[], object], hot: list[int], dim: int) -> None:
+        super().__init__(name="gen-refactorisation", daemon=True)
+        self._assemble, self._hot, self._dim = assemble, hot, dim
+        self._out: Refactorisation | None = None
+        self._error: BaseException | None = None
+
+    def run(self) -> None:
+        try:
+            system = self._assemble()
+            self._out = Refactorisation(system.L, system.b, system.nodes, self._hot, self._dim)
+        except BaseException as exc:  # re-raised on the caller's thread at the hand-over
+            self._error = exc
+
+    def result(self) -> Refactorisation:
+        self.join()
+        if self._error is not None:
+            raise self._error
+        return self._out
 
 
 class IncrementalBlue:
@@ -65,6 +128,9 @@ class IncrementalBlue:
         self._clock = 0
         self.rebuilds = 0
         self.activated = 0
+        # a background rebuild: its worker and the operations done since its snapshot
+        self._worker: _Worker | None = None
+        self._log: list[tuple[str, tuple]] | None = None
 
     # -- bookkeeping ------------------------------------------------------------------
     def _grow_ids(self, n: int) -> None:
@@ -201,6 +267,8 @@ class IncrementalBlue:
         if self.is_represented(new) or new in self._hidden:
             raise ValueError(f"node {new} is already in the estimate")
         parents = list(parents)
+        self._record("border", new, parents, [np.array(g, float) for g in gains],
+                     np.array(z, float), np.array(cov, float))
         if parents:
             self.activate(parents)
             pd = self._dims(parents)
@@ -228,6 +296,8 @@ class IncrementalBlue:
         ``R`` may be indefinite: a relinearisation removes the old linearisation with a
         negative "covariance". ``nodes`` must be represented; they are activated.
         """
+        self._record("update", list(nodes), np.array(J, float), np.array(R, float),
+                     np.array(y, float))
         self.activate(nodes)
         idx = self._dims(nodes)
         t = self.active_dims
@@ -243,7 +313,13 @@ class IncrementalBlue:
 
     def hide(self, node: int) -> None:
         """Forget ``node`` (DeleteNode): the others' marginal does not change (eq. 15)."""
+        self._record("hide", node)
         self._hidden.add(node)
+
+    def _record(self, op: str, *args) -> None:
+        """Log an operation for the replay on the factor of a background rebuild."""
+        if self._log is not None:
+            self._log.append((op, args))
 
     def _touch_nodes(self, nodes: Sequence[int]) -> None:
         self._clock += 1
@@ -313,7 +389,43 @@ class IncrementalBlue:
         eliminated last, so their joint covariance is the inverse of the factor's
         trailing block (:class:`~.batch.TrailingFactor`), with no solves.
         """
-        nodes = np.asarray(nodes, np.int64)
+        if self._worker is not None:
+            raise RuntimeError("a background rebuild is pending: finish_rebuild() first")
+        self.install(Refactorisation(L, b, nodes, hot, self.d))
+
+    # -- rebuild in the background ---------------------------------------------------------
+    @property
+    def rebuild_pending(self) -> bool:
+        """A background rebuild was started and not handed over yet: the estimates are
+        those of the previous factorisation (exact for its linearisation)."""
+        return self._worker is not None
+
+    def start_rebuild(self, assemble: Callable[[], object], hot: Sequence[int] = ()) -> None:
+        """:meth:`rebuild` of the system ``assemble()`` returns (an object with ``L``, ``b``
+        and ``nodes``, built from a snapshot), assembled and factorised on a worker thread;
+        the current factor keeps serving (and logging) every operation until
+        :meth:`finish_rebuild`."""
+        if self._worker is not None:
+            raise RuntimeError("a background rebuild is already pending")
+        self._worker = _Worker(assemble, list(hot), self.d)
+        self._log = []
+        self._worker.start()
+
+    def finish_rebuild(self) -> int:
+        """Wait for the background factorisation, install it and replay the operations
+        logged since its snapshot; returns how many were replayed."""
+        worker, log = self._worker, self._log
+        if worker is None:
+            return 0
+        self._worker, self._log = None, None
+        self.install(worker.result())
+        for op, args in log:
+            getattr(self, op)(*args)
+        return len(log)
+
+    def install(self, f: Refactorisation) -> None:
+        """Reset the estimate to a factorised system: factor, solution, hot nodes active."""
+        nodes = f.nodes
         self._grow_ids(int(nodes.max(initial=-1)) + 1)
         self._fblock[:] = -1
         self._fblock[nodes] = np.arange(len(nodes))
@@ -324,21 +436,13 @@ class IncrementalBlue:
         self._hinv = np.zeros((0, 0))
         self._xf_old = np.zeros(0)
         self.rebuilds += 1
-        hot = list(dict.fromkeys(h for h in hot if self._fblock[h] >= 0))
-        if not len(nodes):
-            self._lu, self._xf = None, np.zeros(0)
+        self._lu, self._xf = f.lu, f.xf
+        if not f.hot:
             return
-        if not hot:
-            self._lu = factorize(L)
-            self._xf = self._lu.solve(np.asarray(b, float))
-            return
-        hdims = (self._fblock[np.asarray(hot)][:, None] * self.d + np.arange(self.d)).ravel()
-        self._lu = TrailingFactor(L, hdims)
-        self._xf = self._lu.solve(np.asarray(b, float))
-        new = self._new_slots(hot)
+        new = self._new_slots(f.hot)
         self._sig[np.ix_(new, new)] = self._lu.covariance
-        self._x[new] = self._xf[hdims]
+        self._x[new] = self._xf[f.hdims]
         self._hinv = self._lu.schur.copy()
-        self._xf_old = self._xf[hdims].copy()
-        self._old_slots = [int(self._slot[n]) for n in hot]
-        self.activated += len(hot)
+        self._xf_old = self._xf[f.hdims].copy()
+        self._old_slots = [int(self._slot[n]) for n in f.hot]
+        self.activated += len(f.hot)

@@ -142,15 +142,34 @@ class GeneralizedElectricalNetwork:
     ``hot_nodes`` recently touched nodes are re-activated after each refactorisation.
     ``incremental=False`` gives the plain batch BLUE instead (everything re-solved on the
     first query after a change), as a reference.
+
+    ``rebuild_lag`` > 0 moves the factorisation of systems with at least
+    ``background_dims`` dimensions off the caller's thread: :meth:`rebuild` assembles the
+    system (re-linearising the stale edges) and hands it to a worker; until the hand-over
+    the estimates stay those of the previous factorisation (:attr:`rebuild_pending`), and
+    the hand-over happens in the ``rebuild_lag``-th :meth:`relinearize` call after it (one
+    call per update), or at once when the dense active set grows past twice its bound.
+    The hand-over point depends only on the calls, never on the worker's timing, so the
+    same inputs give identical estimates; smaller systems are refactorised at once.
     """
 
     def __init__(self, dim: int = 3, *, eps: float = 1e-6, relinearize_sigma: float = 0.1,
                  max_active_dims: int = 900, hot_nodes: int = 150,
-                 incremental: bool = True) -> None:
+                 incremental: bool = True, rebuild_lag: int = 0,
+                 background_dims: int = 300) -> None:
+        if rebuild_lag < 0 or background_dims < 0:
+            raise ValueError(f"rebuild_lag ({rebuild_lag}) and background_dims "
+                             f"({background_dims}) must be >= 0")
         self.d = dim
         self.eps = eps
         self.relinearize_sigma = relinearize_sigma
         self.hot_nodes = hot_nodes
+        self.rebuild_lag = rebuild_lag
+        self.background_dims = background_dims
+        self._handover_in = 0
+        #: background rebuilds started, and those handed over early (active set too large)
+        self.background_rebuilds = 0
+        self.forced_handovers = 0
         self.solver: IncrementalBlue | BatchBlue = (
             IncrementalBlue(dim, max_active_dims=max_active_dims) if incremental
             else BatchBlue(dim, self.assemble))
@@ -708,8 +727,15 @@ class GeneralizedElectricalNetwork:
         The new linearisation is applied in the information form, by re-assembling
         ``L`` and ``b`` (eqs. 20, 21) and refactorising: removing an old linearisation
         from a covariance by a negative update is numerically unstable when the
-        direction changed a lot, adding information is not.
+        direction changed a lot, adding information is not. While a background
+        refactorisation is pending this call only counts towards its hand-over (and
+        returns 0): edges that went stale meanwhile are found at the next call after it.
         """
+        if self.rebuild_pending:
+            self._handover_in -= 1
+            if self._handover_in <= 0:
+                self.finish_rebuild()
+            return 0
         tol = self.relinearize_sigma if tol_sigma is None else tol_sigma
         stale = self.stale_edges(tol)
         if stale:
@@ -758,124 +784,92 @@ class GeneralizedElectricalNetwork:
         there exceeds ``tol_sigma`` sigmas are first re-linearised (0: all of them).
         """
         self._flush()
-        d = self.d
-        nn = len(self._keys)
-        unknown = np.array([a and loc and n not in self._anchor for n, (a, loc)
-                            in enumerate(zip(self._alive, self._localised))], bool)
-        nodes = np.flatnonzero(unknown)
-        col = np.full(nn, -1, np.int64)
-        col[nodes] = np.arange(len(nodes))
-        anchor_pos = np.zeros((nn, d))
-        is_anchor = np.zeros(nn, bool)
-        for nid, p in self._anchor.items():
-            anchor_pos[nid] = p
-            is_anchor[nid] = True
-        rows_i, rows_j, blocks = [], [], []
-        bvec = np.zeros(len(nodes) * d)
+        if positions is not None:
+            self._relinearise_at(positions, 0.0 if tol_sigma is None else tol_sigma)
+        return _assemble(self._tables())
 
-        def add(i, j, blk, bi):
-            # blk (m, d, d) is the edge's Kirchhoff block, bi (m, d) its b-part at node i;
-            # L_ij = L_ji = -blk because J_j = -J_i; anchors are folded into b (eq. 12)
-            ua, uc = ~is_anchor[i], ~is_anchor[j]
-            for na, nc, s_b, ok in ((i, j, 1.0, ua), (j, i, -1.0, uc)):
-                rows_i.append(na[ok]); rows_j.append(na[ok]); blocks.append(blk[ok])
-                other_anchor = is_anchor[nc] & ok
-                contrib = s_b * bi
-                contrib[other_anchor] += np.einsum("mkl,ml->mk", blk[other_anchor],
-                                                   anchor_pos[nc[other_anchor]])
-                np.add.at(bvec.reshape(-1, d), col[na[ok]], contrib[ok])
-            both = ua & uc
-            rows_i.append(i[both]); rows_j.append(j[both]); blocks.append(-blk[both])
-            rows_i.append(j[both]); rows_j.append(i[both]); blocks.append(-blk[both])
-
-        def add_dense(nodes, lam, eta):
-            # m edges over k nodes each: Kirchhoff blocks lam (m, k d, k d) and b-part eta
-            # (m, k d) over all their nodes; anchors (at anchor_pos, zero elsewhere) are
-            # folded into b: b_a = eta_a - sum_c lam_ac x_c over anchors c (eq. 12)
-            k = nodes.shape[1]
-            lam = lam.reshape(len(nodes), k, d, k, d)
-            eta = eta.reshape(len(nodes), k, d) - np.einsum(
-                "makcl,mcl->mak", lam, anchor_pos[nodes])
-            for a in range(k):
-                free_a = ~is_anchor[nodes[:, a]]
-                np.add.at(bvec.reshape(-1, d), col[nodes[free_a, a]], eta[free_a, a])
-                for c in range(k):
-                    ok = free_a & ~is_anchor[nodes[:, c]]
-                    rows_i.append(nodes[ok, a]); rows_j.append(nodes[ok, c])
-                    blocks.append(lam[ok, a, :, c, :])
-
-        pos = self._pos
-        sel = np.flatnonzero(pos.alive[:pos.n] & pos.applied[:pos.n])
-        if len(sel):
-            add(pos.i[sel], pos.j[sel], *relative_position_blocks(pos.z[sel], pos.info[sel]))
+    def _relinearise_at(self, positions: np.ndarray, tol_sigma: float) -> None:
+        """Re-linearise at ``positions`` (per node id) the ranges and rotated positions whose
+        linearisation error there exceeds ``tol_sigma`` sigmas (eqs. 18-21)."""
         rng = self._rng
         sel = self._range_candidates(None)
         if len(sel):
-            if positions is not None:
-                xi = self._positions(positions, rng.i[sel])
-                xj = self._positions(positions, rng.j[sel])
-                ok = np.all(np.isfinite(xi), 1) & np.all(np.isfinite(xj), 1)
-                turned = np.zeros(len(sel), bool)
-                turned[ok] = self._stale(sel[ok], xi[ok], xj[ok],
-                                         0.0 if tol_sigma is None else tol_sigma)
-                rng.li[sel[turned]] = xi[turned]
-                rng.lj[sel[turned]] = xj[turned]
-                self.relinearised += int(turned.sum())
-            h, y = range_linearised(rng.r[sel], rng.li[sel], rng.lj[sel], rng.off[sel],
-                                    self.eps)
-            blk, bi = range_blocks(h, y, 1.0 / rng.var[sel])
-            add(rng.i[sel], rng.j[sel], blk, bi)
+            xi = self._positions(positions, rng.i[sel])
+            xj = self._positions(positions, rng.j[sel])
+            ok = np.all(np.isfinite(xi), 1) & np.all(np.isfinite(xj), 1)
+            turned = np.zeros(len(sel), bool)
+            turned[ok] = self._stale(sel[ok], xi[ok], xj[ok], tol_sigma)
+            rng.li[sel[turned]] = xi[turned]
+            rng.lj[sel[turned]] = xj[turned]
+            self.relinearised += int(turned.sum())
         rot = self._rot
         sel = self._rotated_candidates(None)
         if len(sel):
-            if positions is not None:
-                psi = self._positions(positions, rot.h[sel])[:, 0]
-                ok = np.isfinite(psi)
-                turned = np.zeros(len(sel), bool)
-                turned[ok] = self._rot_stale(sel[ok], psi[ok],
-                                             0.0 if tol_sigma is None else tol_sigma)
-                rot.lin[sel[turned]] = psi[turned]
-                self.relinearised += int(turned.sum())
-            g, y = rotated_position_linearised(rot.z[sel], rot.lin[sel])
-            J = np.zeros((len(sel), d, 3 * d))
-            J[:, :, :d] = np.eye(d)
-            J[:, :, d:2 * d] = -np.eye(d)
-            J[:, :, 2 * d] = -g
-            WJ = rot.info[sel] @ J
-            add_dense(np.stack([rot.i[sel], rot.j[sel], rot.h[sel]], axis=1),
-                      np.einsum("mrk,mrl->mkl", J, WJ), np.einsum("mrk,mr->mk", WJ, y))
-        by_size = defaultdict(list)           # dense edges stacked by their node count
-        for e in (*self._mrg, *self._lin):
-            if e.alive and e.applied:
-                by_size[len(e.nodes)].append(e)
-        for group in by_size.values():
-            add_dense(np.stack([e.nodes for e in group]), np.stack([e.lam for e in group]),
-                      np.stack([e.eta for e in group]))
-        if rows_i:
-            ri = col[np.concatenate(rows_i)]
-            rj = col[np.concatenate(rows_j)]
-            bl = np.concatenate(blocks)
-            r = (ri[:, None, None] * d + np.arange(d)[None, :, None]).repeat(d, 2)
-            c = (rj[:, None, None] * d + np.arange(d)[None, None, :]).repeat(d, 1)
-            L = sp.csc_matrix((bl.ravel(), (r.ravel(), c.ravel())),
-                              shape=(len(nodes) * d,) * 2)
-        else:
-            L = sp.csc_matrix((len(nodes) * d,) * 2)
-        L.sum_duplicates()
-        return KirchhoffSystem(L, bvec, nodes, d)
+            psi = self._positions(positions, rot.h[sel])[:, 0]
+            ok = np.isfinite(psi)
+            turned = np.zeros(len(sel), bool)
+            turned[ok] = self._rot_stale(sel[ok], psi[ok], tol_sigma)
+            rot.lin[sel[turned]] = psi[turned]
+            self.relinearised += int(turned.sum())
+
+    def _tables(self) -> _Tables:
+        """What the assembly reads, as a snapshot that later changes to the network do not
+        touch: the live localised nodes and the live applied edges."""
+        nn = len(self._keys)
+        anchor = self._anchor_mask()
+        unknown = np.asarray(self._alive, bool) & np.asarray(self._localised, bool) & ~anchor
+
+        def live(table: _Columns, *names: str) -> dict[str, np.ndarray]:
+            n = table.n
+            ok = np.flatnonzero(table.alive[:n] & table.applied[:n])
+            return {k: getattr(table, k)[ok] for k in names}   # copies (fancy indexing)
+
+        dense = [(e.nodes, e.lam, e.eta) for e in (*self._mrg, *self._lin)
+                 if e.alive and e.applied]
+        return _Tables(self.d, self.eps, np.flatnonzero(unknown), nn,
+                       {k: v.copy() for k, v in self._anchor.items()},
+                       live(self._pos, "i", "j", "z", "info"),
+                       live(self._rng, "i", "j", "r", "var", "off", "li", "lj"),
+                       live(self._rot, "i", "j", "h", "z", "info", "lin"), dense)
 
     def _maybe_rebuild(self) -> None:
-        if self.solver.needs_rebuild():
+        if not self.solver.needs_rebuild():
+            return
+        if not self.rebuild_pending:
             self.rebuild()
+        elif self.solver.active_dims > 2 * self.solver.max_active_dims:
+            self.forced_handovers += 1
+            self.finish_rebuild()
+
+    @property
+    def rebuild_pending(self) -> bool:
+        """A background refactorisation is under way: the estimates are the exact BLUE of
+        the previous factorisation and linearisation (the last good ones), not yet of the
+        edges it re-linearises."""
+        return isinstance(self.solver, IncrementalBlue) and self.solver.rebuild_pending
+
+    def finish_rebuild(self) -> None:
+        """Hand a background refactorisation over now (waiting for it if need be)."""
+        if self.rebuild_pending:
+            self.solver.finish_rebuild()
 
     def rebuild(self, tol_sigma: float | None = None) -> None:
         """Refactorise: re-linearise stale ranges at the current estimates, assemble,
-        factorise."""
+        factorise (on a worker thread for a large system when ``rebuild_lag`` > 0)."""
         tol_sigma = self.relinearize_sigma if tol_sigma is None else tol_sigma
+        self.finish_rebuild()
         self._flush()
         est = self.solver.full_estimate(len(self._keys))
         hot = self.solver.recent_nodes(self._hot_count())
-        system = self.assemble(est, tol_sigma)
+        self._relinearise_at(est, tol_sigma)
+        tables = self._tables()
+        if (self.rebuild_lag and isinstance(self.solver, IncrementalBlue)
+                and len(tables.nodes) * self.d >= self.background_dims):
+            self.solver.start_rebuild(lambda: _assemble(tables, coo=True), hot)
+            self._handover_in = self.rebuild_lag
+            self.background_rebuilds += 1
+            return
+        system = _assemble(tables)
         self.solver.rebuild(system.L, system.b, system.nodes, hot)
 
     def cost(self, positions: np.ndarray) -> float:
@@ -913,6 +907,7 @@ class GeneralizedElectricalNetwork:
         Levenberg-Marquardt damping, every range and rotated position re-linearised at
         each iterate, until the estimates move less than ``tol`` [m]. Returns the
         iterations done; the network's estimates are the optimum afterwards."""
+        self.finish_rebuild()
         n = len(self._keys)
         x = self.solver.full_estimate(n)
         cost = self.cost(np.nan_to_num(x))
@@ -1033,3 +1028,103 @@ class GeneralizedElectricalNetwork:
 
     def key_of(self, nid: int) -> Hashable:
         return self._keys[nid]
+
+
+@dataclass
+class _Tables:
+    """A snapshot of what the assembly of ``L`` and ``b`` reads (see
+    :meth:`GeneralizedElectricalNetwork._tables`); edge columns hold live applied edges only."""
+
+    d: int
+    eps: float
+    nodes: np.ndarray                       # ids of the live localised non-anchor nodes
+    n_ids: int
+    anchors: dict[int, np.ndarray]
+    pos: dict[str, np.ndarray]
+    rng: dict[str, np.ndarray]
+    rot: dict[str, np.ndarray]
+    dense: list[tuple[np.ndarray, np.ndarray, np.ndarray]]   # (nodes, lam, eta)
+
+
+def _assemble(t: _Tables, coo: bool = False) -> KirchhoffSystem:
+    """Kirchhoff matrix and ``b`` (eqs. 7, 9, 20, 21) of a table snapshot, on any thread.
+    ``coo``: ``L`` as the unsorted blocks with duplicates (a ``coo_matrix``), leaving their
+    summation to whoever factorises it."""
+    d, nn, nodes = t.d, t.n_ids, t.nodes
+    col = np.full(nn, -1, np.int64)
+    col[nodes] = np.arange(len(nodes))
+    anchor_pos = np.zeros((nn, d))
+    is_anchor = np.zeros(nn, bool)
+    for nid, p in t.anchors.items():
+        anchor_pos[nid] = p
+        is_anchor[nid] = True
+    rows_i, rows_j, blocks = [], [], []
+    bvec = np.zeros(len(nodes) * d)
+
+    def add(i, j, blk, bi):
+        # blk (m, d, d) is the edge's Kirchhoff block, bi (m, d) its b-part at node i;
+        # L_ij = L_ji = -blk because J_j = -J_i; anchors are folded into b (eq. 12)
+        ua, uc = ~is_anchor[i], ~is_anchor[j]
+        for na, nc, s_b, ok in ((i, j, 1.0, ua), (j, i, -1.0, uc)):
+            rows_i.append(na[ok]); rows_j.append(na[ok]); blocks.append(blk[ok])
+            other_anchor = is_anchor[nc] & ok
+            contrib = s_b * bi
+            contrib[other_anchor] += np.einsum("mkl,ml->mk", blk[other_anchor],
+                                               anchor_pos[nc[other_anchor]])
+            np.add.at(bvec.reshape(-1, d), col[na[ok]], contrib[ok])
+        both = ua & uc
+        rows_i.append(i[both]); rows_j.append(j[both]); blocks.append(-blk[both])
+        rows_i.append(j[both]); rows_j.append(i[both]); blocks.append(-blk[both])
+
+    def add_dense(nodes, lam, eta):
+        # m edges over k nodes each: Kirchhoff blocks lam (m, k d, k d) and b-part eta
+        # (m, k d) over all their nodes; anchors (at anchor_pos, zero elsewhere) are
+        # folded into b: b_a = eta_a - sum_c lam_ac x_c over anchors c (eq. 12)
+        k = nodes.shape[1]
+        lam = lam.reshape(len(nodes), k, d, k, d)
+        eta = eta.reshape(len(nodes), k, d) - np.einsum(
+            "makcl,mcl->mak", lam, anchor_pos[nodes])
+        for a in range(k):
+            free_a = ~is_anchor[nodes[:, a]]
+            np.add.at(bvec.reshape(-1, d), col[nodes[free_a, a]], eta[free_a, a])
+            for c in range(k):
+                ok = free_a & ~is_anchor[nodes[:, c]]
+                rows_i.append(nodes[ok, a]); rows_j.append(nodes[ok, c])
+                blocks.append(lam[ok, a, :, c, :])
+
+    pos = t.pos
+    if len(pos["i"]):
+        add(pos["i"], pos["j"], *relative_position_blocks(pos["z"], pos["info"]))
+    rng = t.rng
+    if len(rng["i"]):
+        h, y = range_linearised(rng["r"], rng["li"], rng["lj"], rng["off"], t.eps)
+        blk, bi = range_blocks(h, y, 1.0 / rng["var"])
+        add(rng["i"], rng["j"], blk, bi)
+    rot = t.rot
+    if len(rot["i"]):
+        g, y = rotated_position_linearised(rot["z"], rot["lin"])
+        J = np.zeros((len(rot["i"]), d, 3 * d))
+        J[:, :, :d] = np.eye(d)
+        J[:, :, d:2 * d] = -np.eye(d)
+        J[:, :, 2 * d] = -g
+        WJ = rot["info"] @ J
+        add_dense(np.stack([rot["i"], rot["j"], rot["h"]], axis=1),
+                  np.einsum("mrk,mrl->mkl", J, WJ), np.einsum("mrk,mr->mk", WJ, y))
+    by_size = defaultdict(list)           # dense edges stacked by their node count
+    for e in t.dense:
+        by_size[len(e[0])].append(e)
+    for group in by_size.values():
+        add_dense(*(np.stack(part) for part in zip(*group)))
+    if rows_i:
+        ri = col[np.concatenate(rows_i)]
+        rj = col[np.concatenate(rows_j)]
+        bl = np.concatenate(blocks)
+        r = (ri[:, None, None] * d + np.arange(d)[None, :, None]).repeat(d, 2)
+        c = (rj[:, None, None] * d + np.arange(d)[None, None, :]).repeat(d, 1)
+        L = sp.coo_matrix((bl.ravel(), (r.ravel(), c.ravel())), shape=(len(nodes) * d,) * 2)
+    else:
+        L = sp.coo_matrix((len(nodes) * d,) * 2)
+    if not coo:
+        L = L.tocsc()
+        L.sum_duplicates()
+    return KirchhoffSystem(L, bvec, nodes, d)

@@ -130,6 +130,13 @@ class Graph(Params):
                                      "linearisation error exceeds this many sigmas")
     max_active_dims: int = param(600, ge=30, le=20_000, description="dense active set of the incremental "
                                  "solver before refactorising")
+    rebuild_lag: int = param(0, ge=0, le=1_000, description="updates from the start of a "
+                             "refactorisation on a worker thread to its hand-over (0: on the "
+                             "pipeline thread); the poses meanwhile are the previous "
+                             "factorisation's (counted as poses_while_refactorising)")
+    background_dims: int = param(3000, ge=0, le=1_000_000, description="systems of at least this "
+                                 "many dimensions are refactorised on the worker thread; "
+                                 "smaller ones at once")
 
 
 class HeadingStates(Params):
