@@ -318,3 +318,36 @@ def test_a_jump_between_hypotheses_is_reported_and_not_trusted_until_evidence(fl
     # 0.05 m per update: untrusted until 1 m has been walked since the jump
     assert not any(poses[t].trusted for t in np.arange(20.0, 38.0))
     assert all(poses[t].trusted for t in np.arange(41.0, 80.0))
+
+
+def test_a_converged_filter_runs_icp_on_its_own_patterns_only_with_the_same_result(
+        flat, search_walk, monkeypatch):
+    """Once the cloud is converged (no pseudo-observation particles are drawn) eq. (2)
+    reads only the entries the particles are associated with: the filter compares the
+    walk with those patterns alone, and its poses are exactly those of comparing with
+    every pattern (Algorithm 1)."""
+    from firenav_plugins.constraints.search_pattern_icp import comparison as cmp
+    params = {"particles": 300, "start": pose_start(*search_walk.truth_xy[0], 0.0), "seed": 4}
+    icp = [(SearchPatternIcpConstraint, {"sigma": 0.3, "resample_above_m2": 3.0})]
+    candidates = []
+    original = cmp.icp_batch
+
+    def counting(src, patterns, pattern_of, *a, **k):
+        candidates.append(len(pattern_of))
+        return original(src, patterns, pattern_of, *a, **k)
+
+    monkeypatch.setattr(cmp, "icp_batch", counting)
+    rec, _ = run(flat, search_walk, params, icp)
+    restricted = list(candidates)
+    full_compare = cmp.PatternComparison.compare
+    monkeypatch.setattr(cmp.PatternComparison, "compare",
+                        lambda self, odo, patterns=None: full_compare(self, odo))
+    candidates.clear()
+    rec_full, _ = run(flat, search_walk, params, icp)
+    a, b = rec.on("pose"), rec_full.on("pose")
+    assert len(a) == len(b) and len(restricted) >= len(candidates) > 50
+    np.testing.assert_array_equal([p.position for p in a], [p.position for p in b])
+    assert [p.trusted for p in a] == [p.trusted for p in b]
+    # the full comparison scores every pattern under four rotations at every comparison
+    assert len(set(candidates)) == 1
+    assert sum(restricted) < 0.5 * sum(candidates)
