@@ -280,7 +280,7 @@ FIELD = {"particles": 1000, "motion": {"position_noise": 0.05, "noise_while_stil
 FIELD_CONSTRAINTS = {"walls": {"mode": "downweight", "factor": 0.05},
                      "icp": {"sigma": 0.3, "resample_above_m2": 3.0}}
 FIELD_BEFORE = {"jump": 1.0, "jump_evidence": 20.0}
-FIELD_AFTER = {**FIELD_BEFORE, "plan_evidence": 0.03, "plan_window": 10.0}
+FIELD_AFTER = {**FIELD_BEFORE, "plan_evidence": 0.01, "plan_window": 5.0}
 
 
 def field_costs(building, minutes: float) -> None:
@@ -297,8 +297,8 @@ def field_costs(building, minutes: float) -> None:
     full_compare = PatternComparison.compare
     configs = {
         "before": (FIELD_BEFORE, {}, False),
-        "after": (FIELD_AFTER, {"yaw_rate_sigma": "0.17 deg/s"}, False),
-        "after, ICP on every pattern": (FIELD_AFTER, {"yaw_rate_sigma": "0.17 deg/s"}, True),
+        "after": (FIELD_AFTER, {"yaw_rate_sigma": "0.05 deg/s"}, False),
+        "after, ICP on every pattern": (FIELD_AFTER, {"yaw_rate_sigma": "0.05 deg/s"}, True),
     }
     times: dict[str, list] = {k: [] for k in configs}
     for _ in range(3):
