@@ -274,8 +274,8 @@ def jump_rule_costs(building, minutes: float) -> None:
     print(f"CPU on / off: {ratio:.2f} (goal: within 2x)")
 
 
-#: the filter of pipelines/search-pattern-pf-field.yaml before issue 15's rules of this
-#: round (walls that may be wrong, gated pattern resampling, the jump rule) from a known start
+#: the filter of pipelines/search-pattern-pf-field.yaml (walls that may be wrong, gated pattern
+#: resampling; its trust rules before / after the drift state and plan-evidence rule below)
 FIELD = {"particles": 1000, "motion": {"position_noise": 0.05, "noise_while_still": False}}
 FIELD_CONSTRAINTS = {"walls": {"mode": "downweight", "factor": 0.05},
                      "icp": {"sigma": 0.3, "resample_above_m2": 3.0}}
