@@ -26,6 +26,7 @@ time) for 10 firefighters at 5 000 particles each. Run:
 
     .venv/bin/python benchmarks/bench_pf_speed.py [--plan flat_125] [--minutes 5]
     .venv/bin/python benchmarks/bench_pf_speed.py --jump-rule   # trust.jump off / on only
+    .venv/bin/python benchmarks/bench_pf_speed.py --field       # the field pipeline's filter
 """
 from __future__ import annotations
 
@@ -225,12 +226,15 @@ def walks(building, n_ff: int, minutes: float) -> list:
     return out
 
 
-def run(building, odometry: list, particles: int, patterns: str | None, trust: dict | None = None
+def run(building, odometry: list, particles: int, patterns: str | None, trust: dict | None = None,
+        params: dict | None = None, constraint_params: dict | None = None
         ) -> tuple[float, float, float, dict]:
     """(simulated s, wall s, CPU s, counts) of our filter over all agents' odometry, with
     wall crossing and the search patterns ``patterns`` (``"ours"``, ``"reference"``, or
-    None: walls only); ``trust``: the filter's ``trust`` parameters."""
-    params = {"particles": particles, "start": {"mode": "unknown"}, "trust": trust or {}}
+    None: walls only); ``trust``: the filter's ``trust`` parameters; ``params`` more of
+    the filter's, ``constraint_params`` the constraints' by id (walls, icp)."""
+    params = {"particles": particles, "start": {"mode": "unknown"}, "trust": trust or {},
+              **(params or {})}
     pf, rec, stats = make_component(ParticleFilterEstimator, params, building=building)
     classes = [(WallCrossingConstraint, "walls")]
     if patterns is not None:
@@ -238,7 +242,8 @@ def run(building, odometry: list, particles: int, patterns: str | None, trust: d
                         "icp"))
     all_stats = [stats]
     for cls, cid in classes:
-        c, _, cstats = make_component(cls, {}, building=building, cid=cid)
+        c, _, cstats = make_component(cls, (constraint_params or {}).get(cid, {}),
+                                      building=building, cid=cid)
         c.start()
         pf.constraints.append(c)
         all_stats.append(cstats)
@@ -269,6 +274,53 @@ def jump_rule_costs(building, minutes: float) -> None:
     print(f"CPU on / off: {ratio:.2f} (goal: within 2x)")
 
 
+#: the filter of pipelines/search-pattern-pf-field.yaml (walls that may be wrong, gated pattern
+#: resampling; its trust rules before / after the drift state and plan-evidence rule below)
+FIELD = {"particles": 1000, "motion": {"position_noise": 0.05, "noise_while_still": False}}
+FIELD_CONSTRAINTS = {"walls": {"mode": "downweight", "factor": 0.05},
+                     "icp": {"sigma": 0.3, "resample_above_m2": 3.0}}
+FIELD_BEFORE = {"jump": 1.0, "jump_evidence": 20.0}
+FIELD_AFTER = {**FIELD_BEFORE, "plan_evidence": 0.01, "plan_window": 5.0}
+
+
+def field_costs(building, minutes: float) -> None:
+    """CPU time of the field pipeline's filter before and after the heading-drift state and
+    the plan-evidence rule, on the same search from its true start (same run, best of 3),
+    and the same after-configuration with ICP against every pattern at every comparison
+    (as before the comparison was restricted to the particles' own patterns)."""
+    from firenav_plugins.constraints.search_pattern_icp.comparison import PatternComparison
+    one = walks(building, 1, minutes)
+    sp = extract_search_patterns(building)
+    loop = sp.positions(sp.sequence("right_hand"))          # the first walk starts at loop[0]
+    start = {"mode": "pose", "position": (*loop[0], 0.0),
+             "heading": math.atan2(*(loop[1] - loop[0])[::-1])}
+    full_compare = PatternComparison.compare
+    configs = {
+        "before": (FIELD_BEFORE, {}, False),
+        "after": (FIELD_AFTER, {"yaw_rate_sigma": "0.05 deg/s"}, False),
+        "after, ICP on every pattern": (FIELD_AFTER, {"yaw_rate_sigma": "0.05 deg/s"}, True),
+    }
+    times: dict[str, list] = {k: [] for k in configs}
+    for _ in range(3):
+        for label, (trust, motion, full) in configs.items():
+            params = {**FIELD, "start": start, "motion": {**FIELD["motion"], **motion}}
+            if full:
+                PatternComparison.compare = lambda self, odo, patterns=None: full_compare(self, odo)
+            try:
+                sim, wall, cpu, _ = run(building, one, 1000, "ours", trust, params,
+                                        FIELD_CONSTRAINTS)
+            finally:
+                PatternComparison.compare = full_compare
+            times[label].append((wall, cpu))
+    print(f"field filter, 1000 particles, known start, one firefighter, {sim:.0f} s simulated; "
+          "best of 3")
+    for label, t in times.items():
+        wall, cpu = min(w for w, _ in t), min(c for _, c in t)
+        print(f"{label:<28}: wall {wall:.3f} s ({sim / wall:.0f}x real time), CPU {cpu:.3f} s")
+    ratio = min(c for _, c in times["after"]) / min(c for _, c in times["before"])
+    print(f"CPU after / before: {ratio:.2f} (goal: within 2x)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--plan", default="flat_125")
@@ -278,6 +330,9 @@ def main() -> None:
     ap.add_argument("--jump-rule", action="store_true",
                     help="only the per-step cost with the look-alike jump rule (trust.jump) "
                          "off and on, 500 particles, one firefighter, alternated 3 times")
+    ap.add_argument("--field", action="store_true",
+                    help="only the per-step cost of the field pipeline's filter before / after "
+                         "this round's drift state and plan-evidence rule, alternated 3 times")
     args = ap.parse_args()
     from threadpoolctl import threadpool_limits
     threadpool_limits(1)
@@ -286,6 +341,9 @@ def main() -> None:
     run(building, walks(building, 1, 0.7), 100, "ours")
     if args.jump_rule:
         jump_rule_costs(building, args.minutes)
+        return
+    if args.field:
+        field_costs(building, args.minutes)
         return
     rows = []
     try:

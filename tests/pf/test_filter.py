@@ -318,3 +318,85 @@ def test_a_jump_between_hypotheses_is_reported_and_not_trusted_until_evidence(fl
     # 0.05 m per update: untrusted until 1 m has been walked since the jump
     assert not any(poses[t].trusted for t in np.arange(20.0, 38.0))
     assert all(poses[t].trusted for t in np.arange(41.0, 80.0))
+
+
+def test_a_converged_filter_runs_icp_on_its_own_patterns_only_with_the_same_result(
+        flat, search_walk, monkeypatch):
+    """Once the cloud is converged (no pseudo-observation particles are drawn) eq. (2)
+    reads only the entries the particles are associated with: the filter compares the
+    walk with those patterns alone, and its poses are exactly those of comparing with
+    every pattern (Algorithm 1)."""
+    from firenav_plugins.constraints.search_pattern_icp import comparison as cmp
+    params = {"particles": 300, "start": pose_start(*search_walk.truth_xy[0], 0.0), "seed": 4}
+    icp = [(SearchPatternIcpConstraint, {"sigma": 0.3, "resample_above_m2": 3.0})]
+    candidates = []
+    original = cmp.icp_batch
+
+    def counting(src, patterns, pattern_of, *a, **k):
+        candidates.append(len(pattern_of))
+        return original(src, patterns, pattern_of, *a, **k)
+
+    monkeypatch.setattr(cmp, "icp_batch", counting)
+    rec, _ = run(flat, search_walk, params, icp)
+    restricted = list(candidates)
+    full_compare = cmp.PatternComparison.compare
+    monkeypatch.setattr(cmp.PatternComparison, "compare",
+                        lambda self, odo, patterns=None: full_compare(self, odo))
+    candidates.clear()
+    rec_full, _ = run(flat, search_walk, params, icp)
+    a, b = rec.on("pose"), rec_full.on("pose")
+    assert len(a) == len(b) and len(restricted) >= len(candidates) > 50
+    np.testing.assert_array_equal([p.position for p in a], [p.position for p in b])
+    assert [p.trusted for p in a] == [p.trusted for p in b]
+    # the full comparison scores every pattern under four rotations at every comparison
+    assert len(set(candidates)) == 1
+    assert sum(restricted) < 0.5 * sum(candidates)
+
+
+class RefuteHalf(ParticleConstraint):
+    """Between t1 and t2 the plan refutes the half of the cloud east of its weighted mean
+    (a factor 0.05, like a wall that may be wrong) at every update."""
+
+    name = "refute_half"
+
+    def __init__(self, params, ctx, t1=20.0, t2=40.0):
+        super().__init__(params, ctx)
+        self.t1, self.t2 = t1, t2
+
+    def log_likelihood(self, step):
+        if not self.t1 <= step.t < self.t2:
+            return None
+        p = step.particles
+        return np.where(p.xy[:, 0] > p.weights @ p.xy[:, 0], math.log(0.05), 0.0)
+
+
+@pytest.mark.parametrize("plan_evidence", [None, 0.05])
+def test_a_plan_that_keeps_refuting_part_of_the_cloud_is_a_contradiction(flat, plan_evidence):
+    """Issue 15: a motion the plan keeps contradicting a part at a time (about half the
+    weight per update) never takes the smoothed contradiction level below its floor; the
+    product of the retained shares over the last 3 m does: map_error with the place and
+    untrusted while it lasts, trusted again once the plan agrees over 3 m."""
+    walk, pos = [], np.zeros(3)
+    for k in range(1, 61):
+        delta = np.array([0.25, 0.0, 0.0])
+        pos = pos + delta
+        walk.append(Odometry(t=float(k), agent="ff1", t_start=k - 1.0, delta=delta, dheading=0.0,
+                             cov=np.eye(4) * 1e-4, position=pos.copy(), heading=0.0))
+    params = {"start": pose_start(2.0, 2.0), "motion": {"position_noise": 0.02},
+              "trust": {"plan_evidence": plan_evidence, "plan_window": 3.0}}
+    pf, rec, _ = make_component(ParticleFilterEstimator, params, building=flat)
+    pf.constraints.append(make_component(RefuteHalf, {}, building=flat, cid="refute")[0])
+    pf.start()
+    for msg in walk:
+        pf.handle("odo", msg)
+    diags = [(d.t, d.code, d.level, d.active) for d in rec.on("diagnostics")]
+    trusted = {p.t: p.trusted for p in rec.on("pose")}
+    if plan_evidence is None:       # today's monitors: no map_error, trusted while refuted
+        assert diags == [] and trusted[19.0] and trusted[24.0]
+        return
+    (start, start_code, level, active), (end, end_code, _, cleared) = diags
+    assert start_code == end_code == "map_error" and level == "warning" and active
+    assert not cleared
+    assert 20.0 < start <= 26.0 and 40.0 < end <= 40.0 + 3.0 / 0.25 + 1
+    assert "contradicts the plan near (" in rec.on("diagnostics")[0].text
+    assert trusted[19.0] and not any(trusted[t] for t in trusted if start <= t < end)

@@ -186,3 +186,17 @@ def test_pseudo_observation_resampling_gate(gate, spread, resampled):
         assert len(new) == 20                           # q = 10 % of 200
         # drawn from the pseudo-observations: mostly at the walked pattern's end
         assert np.median(np.hypot(*(new.xy - path[-1]).T)) < 1.0
+
+
+def test_comparison_restricted_to_some_patterns_equals_the_full_one_there(comparison):
+    """Each sub-pattern's entries depend on that pattern alone: comparing with a subset
+    gives exactly the full comparison's entries of the subset and +inf elsewhere."""
+    sub = comparison.sub
+    odo = (densify(sub.points[3], 0.25) - np.array([10.0, -4.0])) @ rot(1.1)
+    full = comparison.compare(odo)
+    some = np.array([1, 3, len(sub) - 1])
+    part = comparison.compare(odo, some)
+    mine = np.zeros(2 * len(sub), bool)
+    mine[2 * some] = mine[2 * some + 1] = True
+    np.testing.assert_array_equal(part.rmse[mine], full.rmse[mine])
+    assert np.isinf(part.rmse[~mine]).all() and np.isfinite(full.rmse[~mine]).any()

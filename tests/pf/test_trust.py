@@ -9,7 +9,8 @@ import pytest
 
 from firenav_framework.capabilities import Particles
 from firenav_plugins.estimators.particle_filter.trust import (
-    ContradictionMonitor, JumpMonitor, cloud_protection_radius, retained_fraction)
+    ContradictionMonitor, JumpMonitor, PlanEvidenceMonitor, cloud_protection_radius,
+    retained_fraction)
 
 K99 = math.sqrt(-2.0 * math.log(0.01))   # 99 % radius of a unit 2-D Gaussian
 
@@ -68,3 +69,25 @@ def test_jump_monitor_sums_shifts_over_the_window_and_waits_for_evidence():
     assert not m.awaiting_evidence
     # shifts further apart than the window do not add up
     assert not any(m.update(40.0 + 6 * k, np.array([1.5, 0.0]), 0.5) for k in range(5))
+
+
+def test_plan_evidence_multiplies_the_retained_shares_over_the_window():
+    """Half the cloud refuted at every update never takes the smoothed level below the
+    contradiction monitor's floor, but the product over the last metres walked does."""
+    smoothed = ContradictionMonitor(floor=0.25, smoothing=0.3, hold_s=10.0)
+    ev = PlanEvidenceMonitor(floor=0.05, window_m=3.0)
+    assert not ev.update(1.0, 1.0) and not ev.update(1.0, 1.0)        # nothing refuted
+    hits = []
+    for _ in range(8):                                               # 0.5 per metre walked
+        smoothed.update(0.0, 0.5)
+        hits.append(ev.update(0.5, 1.0))
+    assert not smoothed.contradicted
+    # the window holds the updates up to 3 m back: four of 1 m steps, 0.5^4 = 0.0625 > 0.05
+    assert not any(hits)
+    ev = PlanEvidenceMonitor(floor=0.05, window_m=3.0)
+    hits = [ev.update(0.5, 0.25) for _ in range(8)]
+    assert hits == [False, False, False, False, True, True, True, True]   # 0.5^5 < 0.05
+    # the plan agrees again: contradicted until the refuting updates are 3 m behind
+    after = [ev.update(1.0, 0.25) for _ in range(14)]
+    assert after[:8] == [True] * 8 and not any(after[-2:])
+    assert ev.update(0.0, 0.25)                                       # everything refuted

@@ -113,37 +113,43 @@ class PatternComparison:
     def __len__(self) -> int:
         return len(self.sub)
 
-    def compare(self, odo_xy: np.ndarray) -> Observations:
-        """Algorithm 1 for the odometry trajectory ``odo_xy`` (P, 2), INS frame [m]."""
+    def compare(self, odo_xy: np.ndarray, patterns: np.ndarray | None = None) -> Observations:
+        """Algorithm 1 for the odometry trajectory ``odo_xy`` (P, 2), INS frame [m].
+
+        ``patterns`` (indices of sub-patterns) restricts the ICP to those: the entries of
+        every other pattern are left at +inf. Each pattern's entries do not depend on
+        the others, so the entries computed are the same as in the full comparison."""
         k = len(self.sub)
-        init = np.empty(4 * k)
-        for axis in np.unique(self._axis):
-            phi = principal_rotation(odo_xy, float(axis))          # eq. (1)
-            sel = np.repeat(self._axis == axis, 4)
+        which = np.arange(k) if patterns is None else np.asarray(patterns, dtype=np.int64)
+        cand = np.repeat(which, 4)
+        axis = self._axis[which]
+        init = np.empty(len(cand))
+        for a in np.unique(axis):
+            phi = principal_rotation(odo_xy, float(a))          # eq. (1)
+            sel = np.repeat(axis == a, 4)
             init[sel] = np.tile(phi + _FOUR, int(sel.sum()) // 4)
-        rmse, theta, trans, _ = icp_batch(odo_xy, self.sub.points, self._cand_pattern, init,
+        rmse, theta, trans, _ = icp_batch(odo_xy, self.sub.points, cand, init,
                                           max_iter=self.max_iter, tol=self.tol,
                                           segments=self._segments)
         last = odo_xy[-1]
         c, s = np.cos(theta), np.sin(theta)
         xt = np.column_stack([c * last[0] - s * last[1], s * last[0] + c * last[1]]) + trans
-        pts = self.sub.points[self._cand_pattern]
+        pts = self.sub.points[cand]
         d_first = np.hypot(*(xt - pts[:, 0]).T)
         d_last = np.hypot(*(xt - pts[:, -1]).T)
         col = (d_first >= d_last).astype(np.int64)                # 0: first node, 1: last
         e = np.full((k, 4, 2), np.inf)
-        e[self._cand_pattern, np.tile(np.arange(4), k), col] = rmse
+        e[cand, np.tile(np.arange(4), len(which)), col] = rmse
         emin = e.min(axis=1)                                        # (k, 2): E_m
         return Observations(position=self.entry_position, heading=self.entry_heading,
                             rmse=emin.reshape(-1), floor=self.entry_floor)
 
-    def associate(self, obs: Observations, xy: np.ndarray, heading: np.ndarray,
-                  floor: np.ndarray) -> np.ndarray:
-        """E^(i) of eq. (2) for particles at ``xy`` (N, 2) walking in ``heading`` (N,).
-
-        Particles on a floor without patterns get NaN (no information).
-        """
-        out = np.full(len(xy), np.nan)
+    def entries_of(self, xy: np.ndarray, heading: np.ndarray, floor: np.ndarray) -> np.ndarray:
+        """The entry of eq. (2) for particles at ``xy`` (N, 2) walking in ``heading`` (N,)
+        [rad] on ``floor`` (N,): among the entries at the node nearest the particle, the
+        one whose heading is closest; -1 on a floor without patterns. Entry ``j`` belongs
+        to sub-pattern ``j // 2``."""
+        out = np.full(len(xy), -1, dtype=np.int64)
         for fl, (tree, ids) in self._trees.items():
             on = floor == fl
             if not on.any():
@@ -151,11 +157,24 @@ class PatternComparison:
             _, j = tree.query(xy[on])
             entries = self.node_entries[ids[j]]                     # (n, width)
             valid = entries >= 0
-            dh = np.abs(wrap_angles(heading[on, None] - obs.heading[entries]))
+            dh = np.abs(wrap_angles(heading[on, None] - self.entry_heading[entries]))
             dh[~valid] = np.inf
-            best = entries[np.arange(len(entries)), np.argmin(dh, axis=1)]
-            out[on] = obs.rmse[best]
+            out[on] = entries[np.arange(len(entries)), np.argmin(dh, axis=1)]
         return out
+
+    @staticmethod
+    def rmse_of(obs: Observations, entries: np.ndarray) -> np.ndarray:
+        """E^(i) of eq. (2) for the ``entries`` of :meth:`entries_of` (NaN for -1: no
+        information)."""
+        return np.where(entries >= 0, obs.rmse[np.maximum(entries, 0)], np.nan)
+
+    def associate(self, obs: Observations, xy: np.ndarray, heading: np.ndarray,
+                  floor: np.ndarray) -> np.ndarray:
+        """E^(i) of eq. (2) for particles at ``xy`` (N, 2) walking in ``heading`` (N,).
+
+        Particles on a floor without patterns get NaN (no information).
+        """
+        return self.rmse_of(obs, self.entries_of(xy, heading, floor))
 
     @staticmethod
     def sample(obs: Observations, n: int, sigma: float, rng: np.random.Generator

@@ -26,7 +26,8 @@ mean (a second cluster counts in full); ``trusted`` holds while it is within
 the place, cleared with ``active=False``) comes from the spread monitor of §V-E
 (:mod:`.map_error`: ``cov[0,0] + cov[1,1]`` above ``map_error.variance`` after the filter
 had converged) or from the contradiction monitor (the constraints refuting most of the
-cloud), during which the cloud is widened rather than held. With ``trust.jump`` set, a
+cloud, during which the cloud is widened rather than held; with ``trust.plan_evidence``
+also refuting parts of it over the last ``trust.plan_window`` metres). With ``trust.jump`` set, a
 jump of the mean between hypotheses that the particles' own motion does not explain
 (:class:`.trust.JumpMonitor`) raises ``hypothesis_jump`` and keeps the pose untrusted until
 ``trust.jump_evidence`` metres have been walked.
@@ -54,8 +55,8 @@ from .params import ParticleFilterParams
 from .particles import ParticleSummary, local_log_weight, normalise_log_weights
 from .resampling import replace_removed, resample_indices
 from .stairs import apply_stairs
-from .trust import (ContradictionMonitor, JumpMonitor, cloud_protection_radius,
-                    retained_fraction, roughen)
+from .trust import (ContradictionMonitor, JumpMonitor, PlanEvidenceMonitor,
+                    cloud_protection_radius, retained_fraction, roughen)
 
 __all__ = ["ParticleFilterEstimator"]
 
@@ -93,6 +94,10 @@ class _AgentState:
     map_error: bool = False
     #: look-alike jump monitor (``trust.jump``; None: off)
     jump: JumpMonitor | None = None
+    #: the plan's refutations summed over the last metres (``trust.plan_evidence``; None: off)
+    evidence: PlanEvidenceMonitor | None = None
+    #: whether the plan's refutations over the last metres contradict the motion
+    plan_refuted: bool = False
 
 
 class ParticleFilterEstimator(Estimator):
@@ -123,7 +128,9 @@ class ParticleFilterEstimator(Estimator):
                            contradiction=ContradictionMonitor(tr.retained_floor, tr.smoothing,
                                                               tr.hold),
                            jump=(JumpMonitor(tr.jump, tr.jump_evidence, tr.jump_window)
-                                 if tr.jump is not None else None))
+                                 if tr.jump is not None else None),
+                           evidence=(PlanEvidenceMonitor(tr.plan_evidence, tr.plan_window)
+                                     if tr.plan_evidence is not None else None))
 
     def reset(self, agent: str) -> None:
         self.state.reset(agent)
@@ -225,8 +232,9 @@ class ParticleFilterEstimator(Estimator):
                             history=st.history, ins_heading=msg.heading,
                             walk_offset=st.walk_offset, rng=rng, building=self.ctx.building,
                             spread_m2=st.spread_m2)
+        walked_m = float(np.hypot(*pend.delta[:2]))
         retained = self._measurement_updates(step, before)
-        self._contradiction(st, step, retained)
+        self._contradiction(st, step, retained, walked_m)
         self._replace_by_constraints(step)
         resampling = self.params.resampling
         if len(p) and p.effective_sample_size() < resampling.below_ess * len(p):
@@ -234,7 +242,7 @@ class ParticleFilterEstimator(Estimator):
             st.particles = p = p.take(idx)
             p.logw[:] = -math.log(len(p))
             self.ctx.count("resampled")
-        self._publish(agent, st, step, propagated_mean, float(np.hypot(*pend.delta[:2])))
+        self._publish(agent, st, step, propagated_mean, walked_m)
 
     def _update_offset(self, st: _AgentState) -> None:
         """Footnote 4: re-estimate the IMU-yaw to walking-direction offset."""
@@ -276,9 +284,13 @@ class ParticleFilterEstimator(Estimator):
         self.ctx.count("replaced_particles", replace_removed(p, removed, step.rng))
         return retained
 
-    def _contradiction(self, st: _AgentState, step: ParticleStep, retained: float) -> None:
-        """Follow how much of the cloud the plan refutes; widen the cloud while it does."""
+    def _contradiction(self, st: _AgentState, step: ParticleStep, retained: float,
+                       walked_m: float) -> None:
+        """Follow how much of the cloud the plan refutes; widen the cloud while most of it
+        is refuted at once."""
         tr = self.params.trust
+        if st.evidence is not None:
+            st.plan_refuted = st.evidence.update(retained, walked_m)
         if tr.retained_floor <= 0:
             return
         mon = st.contradiction
@@ -353,13 +365,17 @@ class ParticleFilterEstimator(Estimator):
         """One ``map_error`` episode per disturbance of the spread (§V-E) or contradiction of
         the plan: a warning with the place when it starts, cleared when both have ended."""
         spread = st.monitor.state == "disturbed"
-        contra = st.contradiction.contradicted
+        contra = st.contradiction.contradicted or st.plan_refuted
         now = spread or contra
         if now and not st.map_error:
             where = (f"near ({summary.xy[0]:.1f}, {summary.xy[1]:.1f}) m on floor "
                      f"{summary.floor}")
-            why = (f"the motion contradicts the plan {where} (the walls refute most of the "
-                   "cloud): widening, estimate not trustworthy" if contra else
+            how = ("the walls refute most of the cloud): widening"
+                   if st.contradiction.contradicted else
+                   f"the walls kept refuting the cloud over the last "
+                   f"{self.params.trust.plan_window:g} m)")
+            why = (f"the motion contradicts the plan {where} ({how}, estimate not "
+                   "trustworthy" if contra else
                    f"position variance {summary.spread_m2:.1f} m^2 exceeds "
                    f"{st.monitor.threshold_m2:g} m^2 {where}: estimate not trustworthy, "
                    "possible map error")

@@ -133,6 +133,13 @@ class Trust(Params):
                                "reweighting shifts are summed")
     jump_evidence: float = param(10.0, unit="m", ge=0, description="distance to walk after a "
                                  "jump before the pose may be trusted again")
+    plan_evidence: float | None = param(None, gt=0, lt=1, description="product of the "
+                                        "retained shares of the prior weight over the last "
+                                        "plan_window metres below which the motion "
+                                        "contradicts the plan: untrusted, map_error (None "
+                                        "disables)")
+    plan_window: float = param(10.0, unit="m", gt=0, description="distance walked over which "
+                               "plan_evidence multiplies the retained shares")
 
 
 class ParticleFilterParams(Params):

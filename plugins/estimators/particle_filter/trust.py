@@ -23,10 +23,17 @@
   up), a shift longer than ``jump_m`` is a jump: reported once with both places, and the
   pose stays untrusted until the firefighter has walked ``evidence_m`` metres without
   another one.
+* :class:`PlanEvidenceMonitor`: the contradiction monitor sees a plan that refutes most of
+  the cloud at once; a plan that refutes a part of it at every update (a door drawn as a
+  wall the walk keeps going through, a cloud in the wrong room pressed against its
+  walls) adds up instead. The product of the retained fractions over the last
+  ``window_m`` metres walked below ``floor`` means the motion contradicts the plan there:
+  the pose is untrusted and ``map_error`` raised with the place while it lasts.
 """
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,7 +43,7 @@ from firenav_framework.geometry import wrap_angles
 from firenav_framework.integrity import sample_protection_radius
 
 __all__ = ["cloud_protection_radius", "retained_fraction", "ContradictionMonitor", "JumpMonitor",
-           "roughen"]
+           "PlanEvidenceMonitor", "roughen"]
 
 
 def cloud_protection_radius(p: Particles, centre_xy: np.ndarray, floor: int,
@@ -124,6 +131,31 @@ class JumpMonitor:
     def awaiting_evidence(self) -> bool:
         """The pose must not be trusted: a jump less than ``evidence_m`` walked ago."""
         return self.walked_since_m < self.evidence_m
+
+
+@dataclass
+class PlanEvidenceMonitor:
+    """Per firefighter: has the plan kept refuting the cloud over the last metres walked?"""
+
+    floor: float
+    window_m: float
+    #: (distance walked until the update [m], log retained fraction) within the window
+    recent: deque = field(default_factory=deque)
+    walked_m: float = 0.0
+    log_sum: float = 0.0
+
+    def update(self, retained: float, walked_m: float) -> bool:
+        """Feed one update's retained fraction and distance walked [m]; True while the
+        product of the retained fractions over the last ``window_m`` metres is below
+        ``floor``."""
+        self.walked_m += max(walked_m, 0.0)
+        log_r = math.log(min(max(retained, 1e-300), 1.0))
+        self.recent.append((self.walked_m, log_r))
+        self.log_sum += log_r
+        while self.recent and self.recent[0][0] < self.walked_m - self.window_m:
+            self.log_sum -= self.recent.popleft()[1]
+        self.log_sum = min(self.log_sum, 0.0)
+        return self.log_sum < math.log(self.floor)
 
 
 def roughen(p: Particles, sigma_m: float, sigma_rad: float, rng: np.random.Generator) -> None:
