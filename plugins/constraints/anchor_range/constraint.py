@@ -33,6 +33,7 @@ from firenav_framework.capabilities.odometry_correction import (UNKNOWN_VARIANCE
 from firenav_framework.geometry import Rigid2D
 
 from ..anchor_ranges import AnchorRanges, TagParams
+from ..segment_hits import FloorWalls
 
 __all__ = ["AnchorRangeConstraint"]
 
@@ -79,10 +80,12 @@ class AnchorRangeConstraint(OdometryCorrection):
         self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
         self._building = None
         self._anchors: AnchorRanges | None = None
+        self._walls: FloorWalls | None = None
 
     def start(self) -> None:
         self._building = self.ctx.building
         self._anchors = AnchorRanges(self._building)
+        self._walls = FloorWalls(self._building)
 
     def reset(self, agent: str) -> None:
         self.agents.reset(agent)
@@ -137,7 +140,7 @@ class AnchorRangeConstraint(OdometryCorrection):
             if horiz < p.min_distance:
                 self.ctx.count("ranges_too_close")
                 continue
-            if not p.through_walls and floor.crosses_wall(pos[None], anchor[None, :2])[0]:
+            if not p.through_walls and self._walls.at_z(step.prev[2]).crosses_one(pos, anchor):
                 self.ctx.count("ranges_through_walls")
                 continue
             predicted = math.sqrt(horiz * horiz + (tag_z - anchor[2]) ** 2)
