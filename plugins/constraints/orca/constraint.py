@@ -81,11 +81,11 @@ from typing import Literal
 import numpy as np
 from firenav_framework import Angle, PerAgent, Range, param
 from firenav_framework.building import Floor
-from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
-                                                                StepCorrection)
+from firenav_framework.capabilities.odometry_correction import OdometryStep, StepCorrection
 from firenav_framework.geometry import Rigid2D
 
-from ..anchor_ranges import AnchorRanges, TagParams
+from ..anchor_ranges import AnchorRangeInput, TagParams
+from ..corrections import correction
 from ..segment_hits import SegmentHits
 from ..turn_history import TurnHistory
 from .door_graph import DoorGraph
@@ -123,12 +123,10 @@ class _FloorTables:
     door_graph: DoorGraph
 
 
-class OrcaConstraint(OdometryCorrection):
+class OrcaConstraint(AnchorRangeInput):
     """ORCA collision-avoidance velocity map matching of dead-reckoned steps (rotation, door, reset rules)."""
 
     name = "orca"
-    inputs = (Range,)
-    needs_building = True
 
     class Params(TagParams):
         radius: float = param(0.25, unit="m", gt=0, description="agent disc radius r_n "
@@ -212,24 +210,16 @@ class OrcaConstraint(OdometryCorrection):
         super().__init__(params, ctx)
         self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
         self._floors: dict[int, _FloorTables] = {}
-        self._building = None
-        self._anchors: AnchorRanges | None = None
 
     def start(self) -> None:
-        self._building = self.ctx.building
-        self._anchors = AnchorRanges(self._building)
+        super().start()
         self._no_team = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
 
     def reset(self, agent: str) -> None:
         self.agents.reset(agent)
 
     # -- ranges ---------------------------------------------------------------------
-    def handle(self, stream: str, msg: Range) -> None:
-        if not isinstance(msg, Range):
-            return
-        anchor = self._anchors.anchor_of(msg, self.ctx.count)
-        if anchor is None:
-            return
+    def take_range(self, msg: Range, anchor: str) -> None:
         self.agents[msg.agent].ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
 
     def _fresh_ranges(self, agent: _Agent, t: float, speed: float) -> list[RangeFix]:
@@ -297,8 +287,7 @@ class OrcaConstraint(OdometryCorrection):
             return None
         if wall < 0:
             # only team members in the way: avoid them; they say nothing about heading
-            return StepCorrection(position=_with_z(pos + step.dt * v_orca, step),
-                                  event="orca_team")
+            return correction(step, pos + step.dt * v_orca, event="orca_team")
         move = target - pos
         if p.door_pass:
             passed = here.doors.passed(pos, target)
@@ -323,14 +312,12 @@ class OrcaConstraint(OdometryCorrection):
             # not later pass for a heading error or a wrong compartment. (A steeper
             # contact falls through to 'blocked': the reset rule must still see it.)
             moved = pos + step.dt * v_orca
-            return StepCorrection(position=_with_z(moved, step),
-                                  update=Rigid2D.translation(moved - target),
-                                  event="orca_turn_slide")
+            return correction(step, moved, update=Rigid2D.translation(moved - target),
+                              event="orca_turn_slide")
         if kind in ("small", "rotation") and not abs(theta) <= p.max_rotation:
             kind = "blocked"          # a shallow contact no small rotation avoids (a corner)
         if kind == "blocked":
-            return StepCorrection(position=_with_z(pos + step.dt * v_orca, step),
-                                  event="orca_blocked")
+            return correction(step, pos + step.dt * v_orca, event="orca_blocked")
         c, s = math.cos(theta), math.sin(theta)
         moved = np.array([pos[0] + c * move[0] - s * move[1], pos[1] + s * move[0] + c * move[1]])
         stored = theta
@@ -340,9 +327,9 @@ class OrcaConstraint(OdometryCorrection):
             stored = grid.rotation_for(np.array([speed * math.cos(step.heading),
                                                  speed * math.sin(step.heading)]))
         if not abs(stored) >= p.min_rotation or abs(stored) > p.max_rotation:
-            return StepCorrection(position=_with_z(moved, step), event="orca_small")
-        return StepCorrection(position=_with_z(moved, step),
-                              update=Rigid2D.rotation_about(stored, pos), event="orca_rotation")
+            return correction(step, moved, event="orca_small")
+        return correction(step, moved, update=Rigid2D.rotation_about(stored, pos),
+                          event="orca_rotation")
 
     def _reset(self, step: OdometryStep) -> StepCorrection | None:
         """The wrong-compartment reset to the INS position, never through a wall; None
@@ -364,8 +351,7 @@ class OrcaConstraint(OdometryCorrection):
         if via is None:
             self.ctx.count("orca_reset_refused")
             return None
-        return StepCorrection(position=_with_z(via, step), jump=True,
-                              event="orca_reset_via_door")
+        return correction(step, via, jump=True, event="orca_reset_via_door")
 
     def _with_free_space(self, step: OdometryStep, fix: StepCorrection | None
                          ) -> StepCorrection | None:
@@ -424,9 +410,8 @@ class OrcaConstraint(OdometryCorrection):
         end = door + rest
         if here.grid.blocked(door, end, self.params.radius) or here.walls.crosses_one(pos, end):
             end = door.copy()
-        return StepCorrection(position=_with_z(end, step),
-                              update=Rigid2D.translation(door - crossing), jump=jump,
-                              event=event)
+        return correction(step, end, update=Rigid2D.translation(door - crossing), jump=jump,
+                          event=event)
 
     def _turning(self, me: _Agent, step: OdometryStep) -> bool:
         """Did the walker turn more than ``turn_guard`` over this and the previous step?"""
@@ -469,6 +454,3 @@ class OrcaConstraint(OdometryCorrection):
                 DoorGraph(walls, doors, self.params.radius + 0.05))
         return tables
 
-
-def _with_z(xy: np.ndarray, step: OdometryStep) -> np.ndarray:
-    return np.array([xy[0], xy[1], step.proposed[2]])

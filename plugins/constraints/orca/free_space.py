@@ -12,6 +12,7 @@ import numpy as np
 
 from firenav_framework.capabilities.odometry_correction import UNKNOWN_VARIANCE
 
+from ..corrections import axes_covariance
 from ..segment_hits import SegmentHits
 
 __all__ = ["free_space_covariance"]
@@ -42,6 +43,4 @@ def free_space_covariance(walls: SegmentHits, position: np.ndarray, heading: flo
             var[k] = max((a ** 3 + b ** 3) / (3.0 * max(a + b, 1e-9)), 1e-4)
     if var[0] == var[1] == UNKNOWN_VARIANCE:
         return None
-    va, vc = var
-    xy = (va - vc) * c * s
-    return np.array([[va * c * c + vc * s * s, xy], [xy, va * s * s + vc * c * c]])
+    return axes_covariance(np.array([[c, -s], [s, c]]), np.array(var))

@@ -39,6 +39,7 @@ from firenav_framework.capabilities.odometry_correction import (OdometryCorrecti
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
+from ..corrections import correction
 from ..segment_hits import FloorWalls
 from ..turn_history import TurnHistory
 
@@ -164,8 +165,7 @@ class WallFollowConstraint(OdometryCorrection):
         if p.pivot > 0 and walls.crosses(np.array([step.prev[:2], pos]),
                                          np.array([moved, moved])).any():
             update, moved = Rigid2D.rotation_about(angle, pos), pos
-        return StepCorrection(position=np.array([moved[0], moved[1], step.proposed[2]]),
-                              update=update, event="wall_follow")
+        return correction(step, moved, update=update, event="wall_follow")
 
     @staticmethod
     def _trim(run: _Run, length: float) -> None:
