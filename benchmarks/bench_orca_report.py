@@ -9,7 +9,7 @@ better than INS alone on the same seed, the pooled change against INS alone, the
 integrity figures (pooled; worst run), the track's wall crossings (runs with any) and
 the resets (straight, by way of doors, refused) the run counted.
 
-Run: ``.venv/bin/python benchmarks/bench_orca_report.py --seeds 2000-2019
+Run: ``.venv/bin/python benchmarks/bench_orca_report.py --seeds 2000-2009,2020-2029
 [--scenarios orca_test1,field_corridor_run] [--rows ins,published,firenav]
 [--json out.json]`` (about 3 s per run and row on one free core).
 """
@@ -35,8 +35,12 @@ COUNTS = ("orca_reset", "orca_reset_via_door", "orca_reset_refused")
 
 
 def parse_seeds(text: str) -> list[int]:
-    lo, _, hi = text.partition("-")
-    return list(range(int(lo), int(hi or lo) + 1))
+    """Seeds from ``"2000-2019"``, ``"7"`` or a comma list of those."""
+    seeds = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        seeds += range(int(lo), int(hi or lo) + 1)
+    return seeds
 
 
 def measure(path: Path, scenario: str, seeds: list[int], overrides: list[str]) -> dict:

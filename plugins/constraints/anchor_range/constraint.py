@@ -157,10 +157,13 @@ def _seen(cov: np.ndarray, info: np.ndarray, floor: float) -> np.ndarray:
     """The filter's covariance (2, 2) [m^2] on the axes the ranges observed (those of
     the information matrix ``info`` (2, 2) [1/m^2]) plus ``floor`` [m^2], the range
     model error that does not average out from range to range (tag height, body and
-    antenna delays); :data:`UNKNOWN_VARIANCE` across them, where the filter knows only
-    its own step model."""
+    antenna delays), never below what the ranges alone know along the axis (the inverse
+    of ``info``'s eigenvalue: nearly collinear ranges hardly see across their line);
+    :data:`UNKNOWN_VARIANCE` where they see nothing."""
     values, axes = np.linalg.eigh(info)
-    var = np.where(values > 1.0 / UNKNOWN_VARIANCE,
-                   np.einsum("ik,ij,jk->k", axes, cov, axes) + floor, UNKNOWN_VARIANCE)
+    seen = values > 1.0 / UNKNOWN_VARIANCE
+    alone = 1.0 / np.where(seen, values, 1.0)
+    var = np.where(seen, np.maximum(np.einsum("ik,ij,jk->k", axes, cov, axes) + floor, alone),
+                   UNKNOWN_VARIANCE)
     return axes_covariance(axes, var)
 
