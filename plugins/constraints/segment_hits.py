@@ -2,8 +2,9 @@
 
 :meth:`SegmentIndex.first_hit` and :meth:`~SegmentIndex.crosses` take any array of
 moves and check its shape and that every coordinate is finite before the compiled walk:
-right at the building's public interface, but for the one to eight moves a constraint
-asks about on every step those checks cost about ten times the walk itself.
+right at the building's public interface, but for the few moves a constraint asks
+about on every step (four free-space rays, one reset line) those checks cost about ten
+times the walk itself.
 :class:`SegmentHits` holds one index's grid arrays and calls the same compiled walk
 (:func:`firenav_framework.building.index._hits`, so the answers are the index's own)
 with the constraint's own positions, which it checks once, as scalars.

@@ -79,6 +79,7 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
+
 from firenav_framework import Angle, PerAgent, Range, param
 from firenav_framework.building import Floor
 from firenav_framework.capabilities.odometry_correction import OdometryStep, StepCorrection
