@@ -2,18 +2,22 @@
 
 Shared by ``orca`` (its missed-door rule chooses the door that fits the ranges) and
 ``anchor_range`` (the ranges correct the position): which end of a :class:`Range` is a
-known anchor, where that anchor is, and which ranges are unusable.
+known anchor, where that anchor is, and which ranges are unusable
+(:class:`AnchorRanges`), and the constraint's range input that screens them
+(:class:`AnchorRangeInput`).
 """
 from __future__ import annotations
 
 import math
+from abc import abstractmethod
 from typing import Callable
 
 import numpy as np
 
 from firenav_framework import Params, Range, param
+from firenav_framework.capabilities.odometry_correction import OdometryCorrection
 
-__all__ = ["AnchorRanges", "TagParams"]
+__all__ = ["AnchorRangeInput", "AnchorRanges", "TagParams"]
 
 
 class TagParams(Params):
@@ -44,3 +48,30 @@ class AnchorRanges:
             count("ranges_invalid")
             return None
         return anchor
+
+
+class AnchorRangeInput(OdometryCorrection):
+    """An odometry correction that reads UWB ranges to the building's anchors.
+
+    On ``start`` it takes the building and its anchors; every :class:`Range` message of
+    its input is screened (:meth:`AnchorRanges.anchor_of`) and a usable one handed to
+    :meth:`take_range` with the anchor it reaches.
+    """
+
+    inputs = (Range,)
+    needs_building = True
+
+    def start(self) -> None:
+        self._building = self.ctx.building
+        self._anchors = AnchorRanges(self._building)
+
+    def handle(self, stream: str, msg: Range) -> None:
+        if not isinstance(msg, Range):
+            return
+        anchor = self._anchors.anchor_of(msg, self.ctx.count)
+        if anchor is not None:
+            self.take_range(msg, anchor)
+
+    @abstractmethod
+    def take_range(self, msg: Range, anchor: str) -> None:
+        """Keep a usable range ``msg`` to anchor ``anchor`` (id) for the steps to come."""

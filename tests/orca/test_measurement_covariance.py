@@ -15,7 +15,8 @@ import pytest
 
 from firenav_framework.capabilities.odometry_correction import UNKNOWN_VARIANCE, StepCorrection
 from firenav_framework.evaluation.runs import evaluate
-from firenav_plugins.constraints.orca.constraint import free_space_covariance
+from firenav_plugins.constraints.orca.free_space import free_space_covariance
+from firenav_plugins.constraints.segment_hits import SegmentHits
 from firenav_plugins.estimators.dead_reckoning.fusion import fuse_position
 from tests.orca.test_dead_reckoning import POSE, ins_steps, run
 from tests.orca.walker import building
@@ -58,16 +59,16 @@ CORRIDOR = [[[0.0, 0.0], [30.0, 0.0]], [[0.0, 3.0], [30.0, 3.0]],
 
 
 def test_the_walls_around_a_corridor_walk_bound_it_across_not_along():
-    floor = building(CORRIDOR).floors[0]
-    cov = free_space_covariance(floor, np.array([5.0, 0.25]), 0.0, 10.0)
+    walls = SegmentHits(building(CORRIDOR).floors[0].wall_index)
+    cov = free_space_covariance(walls, np.array([5.0, 0.25]), 0.0, 10.0)
     # across: 0.25 m to one wall, 2.75 m to the other, uniform: (a^3 + b^3) / 3 (a + b)
     assert cov[1, 1] == pytest.approx((0.25 ** 3 + 2.75 ** 3) / 9.0)
     assert cov[0, 0] == UNKNOWN_VARIANCE          # open beyond 10 m ahead
     assert cov[0, 1] == pytest.approx(0.0, abs=1e-9)
-    near_end = free_space_covariance(floor, np.array([2.0, 1.5]), math.pi, 10.0)
+    near_end = free_space_covariance(walls, np.array([2.0, 1.5]), math.pi, 10.0)
     assert near_end[0, 0] == UNKNOWN_VARIANCE     # the corridor is open 28 m behind
-    assert free_space_covariance(building([[[0.0, -20.0], [0.0, 20.0]]]).floors[0],
-                                 np.array([1.0, 0.0]), 0.0, 10.0) is None
+    assert free_space_covariance(SegmentHits(building([[[0.0, -20.0], [0.0, 20.0]]])
+                                             .floors[0].wall_index), np.array([1.0, 0.0]), 0.0, 10.0) is None
 
 
 class _Fix:

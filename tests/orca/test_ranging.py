@@ -119,3 +119,24 @@ def test_ranges_that_arrive_before_their_steps_wait_for_them():
 
 def test_it_is_a_conforming_plugin():
     check_plugin(AnchorRangeConstraint)
+
+
+def test_nearly_collinear_ranges_claim_no_more_across_their_line_than_they_know():
+    """Two ranges 2 degrees apart in direction (sigma 0.18 m each) pin the position along
+    their line, but across it they know only what their least-squares fix knows: the
+    filter's own tight covariance (its step model, not the radio) must not be reported
+    as the radio's evidence there."""
+    from firenav_plugins.constraints.anchor_range.constraint import _seen
+    sigma, a = 0.18, math.radians(2.0)
+    h = np.array([[1.0, 0.0], [math.cos(a), math.sin(a)]])
+    info = h.T @ h / sigma ** 2
+    filter_cov, floor = np.diag([0.01, 0.01]), 0.15 ** 2
+    cov = _seen(filter_cov, info, floor)
+    ls = np.linalg.inv(info)                    # what the two ranges alone know
+    values, axes = np.linalg.eigh(info)
+    across, along = axes[:, 0], axes[:, 1]
+    assert across @ cov @ across == pytest.approx(1.0 / values[0])
+    assert across @ cov @ across == pytest.approx(across @ ls @ across)   # metres, not cm
+    assert across @ cov @ across > 10.0
+    # along their line the filter (plus the model floor) knows better than one step's ranges
+    assert along @ cov @ along == pytest.approx(0.01 + floor)

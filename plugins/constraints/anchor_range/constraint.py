@@ -27,12 +27,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from firenav_framework import PerAgent, Range, param
-from firenav_framework.capabilities.odometry_correction import (UNKNOWN_VARIANCE,
-                                                                OdometryCorrection, OdometryStep,
+from firenav_framework.capabilities.odometry_correction import (UNKNOWN_VARIANCE, OdometryStep,
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
-from ..anchor_ranges import AnchorRanges, TagParams
+from ..anchor_ranges import AnchorRangeInput, TagParams
+from ..corrections import axes_covariance, correction
+from ..segment_hits import FloorWalls
 
 __all__ = ["AnchorRangeConstraint"]
 
@@ -47,12 +48,10 @@ class _Agent:
     t: float | None = None                         # time of the last step [s]
 
 
-class AnchorRangeConstraint(OdometryCorrection):
+class AnchorRangeConstraint(AnchorRangeInput):
     """UWB ranges to fixed anchors correct the dead-reckoned position (Kalman filter, translation)."""
 
     name = "anchor_range"
-    inputs = (Range,)
-    needs_building = True
 
     class Params(TagParams):
         init_sigma: float = param(0.3, unit="m", gt=0, description="position uncertainty at "
@@ -77,22 +76,16 @@ class AnchorRangeConstraint(OdometryCorrection):
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
         self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
-        self._building = None
-        self._anchors: AnchorRanges | None = None
+        self._walls: FloorWalls | None = None
 
     def start(self) -> None:
-        self._building = self.ctx.building
-        self._anchors = AnchorRanges(self._building)
+        super().start()
+        self._walls = FloorWalls(self._building)
 
     def reset(self, agent: str) -> None:
         self.agents.reset(agent)
 
-    def handle(self, stream: str, msg: Range) -> None:
-        if not isinstance(msg, Range):
-            return
-        anchor = self._anchors.anchor_of(msg, self.ctx.count)
-        if anchor is None:
-            return
+    def take_range(self, msg: Range, anchor: str) -> None:
         if msg.nlos and not self.params.use_nlos:
             self.ctx.count("ranges_nlos")
             return
@@ -137,7 +130,7 @@ class AnchorRangeConstraint(OdometryCorrection):
             if horiz < p.min_distance:
                 self.ctx.count("ranges_too_close")
                 continue
-            if not p.through_walls and floor.crosses_wall(pos[None], anchor[None, :2])[0]:
+            if not p.through_walls and self._walls.at_z(step.prev[2]).crosses_one(pos, anchor):
                 self.ctx.count("ranges_through_walls")
                 continue
             predicted = math.sqrt(horiz * horiz + (tag_z - anchor[2]) ** 2)
@@ -155,19 +148,22 @@ class AnchorRangeConstraint(OdometryCorrection):
             self.ctx.count("ranges_used")
         if not shift.any():
             return None
-        return StepCorrection(position=np.array([*(step.proposed[:2] + shift), step.proposed[2]]),
-                              update=Rigid2D.translation(shift), event="anchor_range",
-                              cov=_seen(me.cov, info, p.model_sigma ** 2), independent=False)
+        return correction(step, step.proposed[:2] + shift, update=Rigid2D.translation(shift),
+                          event="anchor_range", cov=_seen(me.cov, info, p.model_sigma ** 2),
+                          independent=False)
 
 
 def _seen(cov: np.ndarray, info: np.ndarray, floor: float) -> np.ndarray:
     """The filter's covariance (2, 2) [m^2] on the axes the ranges observed (those of
     the information matrix ``info`` (2, 2) [1/m^2]) plus ``floor`` [m^2], the range
     model error that does not average out from range to range (tag height, body and
-    antenna delays); :data:`UNKNOWN_VARIANCE` across them, where the filter knows only
-    its own step model."""
+    antenna delays), never below what the ranges alone know along the axis (the inverse
+    of ``info``'s eigenvalue: nearly collinear ranges hardly see across their line);
+    :data:`UNKNOWN_VARIANCE` where they see nothing."""
     values, axes = np.linalg.eigh(info)
-    var = np.where(values > 1.0 / UNKNOWN_VARIANCE,
-                   np.einsum("ik,ij,jk->k", axes, cov, axes) + floor, UNKNOWN_VARIANCE)
-    return (axes * var) @ axes.T
+    seen = values > 1.0 / UNKNOWN_VARIANCE
+    alone = 1.0 / np.where(seen, values, 1.0)
+    var = np.where(seen, np.maximum(np.einsum("ik,ij,jk->k", axes, cov, axes) + floor, alone),
+                   UNKNOWN_VARIANCE)
+    return axes_covariance(axes, var)
 

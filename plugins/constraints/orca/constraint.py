@@ -79,17 +79,19 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
-from scipy.sparse.csgraph import shortest_path
 
 from firenav_framework import Angle, PerAgent, Range, param
 from firenav_framework.building import Floor
-from firenav_framework.capabilities.odometry_correction import (OdometryCorrection, OdometryStep,
-                                                                StepCorrection, UNKNOWN_VARIANCE)
+from firenav_framework.capabilities.odometry_correction import OdometryStep, StepCorrection
 from firenav_framework.geometry import Rigid2D
 
-from ..anchor_ranges import AnchorRanges, TagParams
+from ..anchor_ranges import AnchorRangeInput, TagParams
+from ..corrections import correction
+from ..segment_hits import SegmentHits
 from ..turn_history import TurnHistory
+from .door_graph import DoorGraph
 from .doors import DoorTable, RangeFix
+from .free_space import free_space_covariance
 from .rules import approach_angle, classify_rotation, line_crossing
 from .step_solver import FREE, WallGrid
 
@@ -112,44 +114,20 @@ class _Agent:
 
 @dataclass(frozen=True)
 class _FloorTables:
-    """One floor, its walls as the ORCA kernel's grid and its doors as arrays."""
+    """One floor: its walls as the ORCA kernel's grid and for the per-step wall queries,
+    its doors as arrays and the ways through them."""
 
     floor: Floor
     grid: WallGrid
+    walls: SegmentHits
     doors: DoorTable
-    door_nodes: np.ndarray          # (2D, 2) a point just either side of each door [m]
-    door_ways: np.ndarray           # (2D, 2D) shortest way [m] node to node through doors
-    door_before: np.ndarray         # (2D, 2D) the node before the last on that way
-
-    def way_towards(self, a: np.ndarray, b: np.ndarray, max_detour: float) -> np.ndarray | None:
-        """The farthest point (2,) [m] in line of sight of ``a`` along the shortest way from
-        ``a`` to ``b`` (2,) [m] through doors (each passed between points just either side
-        of it), if that way is at most ``max_detour`` [m] longer than the straight line;
-        None otherwise."""
-        nodes = self.door_nodes
-        n = len(nodes)
-        if n == 0:
-            return None
-        ends = np.array([a, b], float)
-        near, far = np.repeat(ends, n, axis=0), np.tile(nodes, (2, 1))
-        clear = ~self.floor.crosses_wall(near, far).reshape(2, n)
-        dist = np.where(clear, np.hypot(*(near - far).T).reshape(2, n), np.inf)
-        total = dist[0][:, None] + self.door_ways + dist[1][None, :]
-        i, j = np.unravel_index(int(np.argmin(total)), total.shape)
-        if not total[i, j] <= math.hypot(*(b - a)) + max_detour:
-            return None
-        k = j                                   # back from the last node to the first
-        while not clear[0, k]:
-            k = self.door_before[i, k]
-        return nodes[k].copy()
+    door_graph: DoorGraph
 
 
-class OrcaConstraint(OdometryCorrection):
+class OrcaConstraint(AnchorRangeInput):
     """ORCA collision-avoidance velocity map matching of dead-reckoned steps (rotation, door, reset rules)."""
 
     name = "orca"
-    inputs = (Range,)
-    needs_building = True
 
     class Params(TagParams):
         radius: float = param(0.25, unit="m", gt=0, description="agent disc radius r_n "
@@ -233,24 +211,16 @@ class OrcaConstraint(OdometryCorrection):
         super().__init__(params, ctx)
         self.agents: PerAgent[_Agent] = PerAgent(lambda agent: _Agent())
         self._floors: dict[int, _FloorTables] = {}
-        self._building = None
-        self._anchors: AnchorRanges | None = None
 
     def start(self) -> None:
-        self._building = self.ctx.building
-        self._anchors = AnchorRanges(self._building)
+        super().start()
         self._no_team = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
 
     def reset(self, agent: str) -> None:
         self.agents.reset(agent)
 
     # -- ranges ---------------------------------------------------------------------
-    def handle(self, stream: str, msg: Range) -> None:
-        if not isinstance(msg, Range):
-            return
-        anchor = self._anchors.anchor_of(msg, self.ctx.count)
-        if anchor is None:
-            return
+    def take_range(self, msg: Range, anchor: str) -> None:
         self.agents[msg.agent].ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
 
     def _fresh_ranges(self, agent: _Agent, t: float, speed: float) -> list[RangeFix]:
@@ -318,8 +288,7 @@ class OrcaConstraint(OdometryCorrection):
             return None
         if wall < 0:
             # only team members in the way: avoid them; they say nothing about heading
-            return StepCorrection(position=_with_z(pos + step.dt * v_orca, step),
-                                  event="orca_team")
+            return correction(step, pos + step.dt * v_orca, event="orca_team")
         move = target - pos
         if p.door_pass:
             passed = here.doors.passed(pos, target)
@@ -344,14 +313,12 @@ class OrcaConstraint(OdometryCorrection):
             # not later pass for a heading error or a wrong compartment. (A steeper
             # contact falls through to 'blocked': the reset rule must still see it.)
             moved = pos + step.dt * v_orca
-            return StepCorrection(position=_with_z(moved, step),
-                                  update=Rigid2D.translation(moved - target),
-                                  event="orca_turn_slide")
+            return correction(step, moved, update=Rigid2D.translation(moved - target),
+                              event="orca_turn_slide")
         if kind in ("small", "rotation") and not abs(theta) <= p.max_rotation:
             kind = "blocked"          # a shallow contact no small rotation avoids (a corner)
         if kind == "blocked":
-            return StepCorrection(position=_with_z(pos + step.dt * v_orca, step),
-                                  event="orca_blocked")
+            return correction(step, pos + step.dt * v_orca, event="orca_blocked")
         c, s = math.cos(theta), math.sin(theta)
         moved = np.array([pos[0] + c * move[0] - s * move[1], pos[1] + s * move[0] + c * move[1]])
         stored = theta
@@ -361,9 +328,9 @@ class OrcaConstraint(OdometryCorrection):
             stored = grid.rotation_for(np.array([speed * math.cos(step.heading),
                                                  speed * math.sin(step.heading)]))
         if not abs(stored) >= p.min_rotation or abs(stored) > p.max_rotation:
-            return StepCorrection(position=_with_z(moved, step), event="orca_small")
-        return StepCorrection(position=_with_z(moved, step),
-                              update=Rigid2D.rotation_about(stored, pos), event="orca_rotation")
+            return correction(step, moved, event="orca_small")
+        return correction(step, moved, update=Rigid2D.rotation_about(stored, pos),
+                          event="orca_rotation")
 
     def _reset(self, step: OdometryStep) -> StepCorrection | None:
         """The wrong-compartment reset to the INS position, never through a wall; None
@@ -379,15 +346,13 @@ class OrcaConstraint(OdometryCorrection):
         """
         here = self._tables(self._building.floor_of_z(step.prev[2]))
         pos, target = step.prev[:2], step.proposed[:2]
-        if self.params.reset_way == "straight" or \
-                not here.floor.crosses_wall(pos[None], target[None])[0]:
+        if self.params.reset_way == "straight" or not here.walls.crosses_one(pos, target):
             return StepCorrection(position=step.proposed.copy(), jump=True, event="orca_reset")
-        via = here.way_towards(pos, target, self.params.reset_max_detour)
+        via = here.door_graph.way_towards(pos, target, self.params.reset_max_detour)
         if via is None:
             self.ctx.count("orca_reset_refused")
             return None
-        return StepCorrection(position=_with_z(via, step), jump=True,
-                              event="orca_reset_via_door")
+        return correction(step, via, jump=True, event="orca_reset_via_door")
 
     def _with_free_space(self, step: OdometryStep, fix: StepCorrection | None
                          ) -> StepCorrection | None:
@@ -398,7 +363,7 @@ class OrcaConstraint(OdometryCorrection):
             return fix
         position = step.proposed if fix is None else fix.position
         here = self._tables(self._building.floor_of_z(step.prev[2]))
-        cov = free_space_covariance(here.floor, position[:2], step.heading, p.free_space_reach)
+        cov = free_space_covariance(here.walls, position[:2], step.heading, p.free_space_reach)
         if cov is None:
             return fix
         if fix is None:
@@ -444,12 +409,10 @@ class OrcaConstraint(OdometryCorrection):
         # the step comes with the next one, the update moving it as well), so that the
         # track itself goes through the door.
         end = door + rest
-        if here.grid.blocked(door, end, self.params.radius) or \
-                here.floor.crosses_wall(pos[None], end[None])[0]:
+        if here.grid.blocked(door, end, self.params.radius) or here.walls.crosses_one(pos, end):
             end = door.copy()
-        return StepCorrection(position=_with_z(end, step),
-                              update=Rigid2D.translation(door - crossing), jump=jump,
-                              event=event)
+        return correction(step, end, update=Rigid2D.translation(door - crossing), jump=jump,
+                          event=event)
 
     def _turning(self, me: _Agent, step: OdometryStep) -> bool:
         """Did the walker turn more than ``turn_guard`` over this and the previous step?"""
@@ -486,63 +449,9 @@ class OrcaConstraint(OdometryCorrection):
         tables = self._floors.get(floor_idx)
         if tables is None:
             floor = self._building.floors[floor_idx]
-            doors = DoorTable(floor)
+            walls, doors = SegmentHits(floor.wall_index), DoorTable(floor)
             tables = self._floors[floor_idx] = _FloorTables(
-                floor, WallGrid(floor, max_agents=MAX_TEAM), doors,
-                *_door_graph(floor, doors, self.params.radius + 0.05))
+                floor, WallGrid(floor, max_agents=MAX_TEAM), walls, doors,
+                DoorGraph(walls, doors, self.params.radius + 0.05))
         return tables
 
-
-def _door_graph(floor: Floor, doors: DoorTable, offset: float
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Points ``offset`` [m] either side of each door (2D, 2), and between each two the
-    shortest way [m] through clear lines and doors (2D, 2D; inf: none) with the node
-    before the last on it (the two points of a door are linked through it)."""
-    nodes = np.concatenate([doors.centers + offset * doors.axes,
-                            doors.centers - offset * doors.axes]).reshape(-1, 2)
-    n = len(nodes)
-    if n == 0:
-        return nodes, np.zeros((0, 0)), np.zeros((0, 0), int)
-    a, b = np.repeat(nodes, n, axis=0), np.tile(nodes, (n, 1))
-    clear = ~floor.crosses_wall(a, b)
-    links = np.where(clear, np.hypot(*(a - b).T), 0.0).reshape(n, n)
-    d = len(doors.centers)
-    links[np.arange(d), np.arange(d) + d] = links[np.arange(d) + d, np.arange(d)] = 2 * offset
-    np.fill_diagonal(links, 0.0)
-    ways, before = shortest_path(links, directed=False, return_predecessors=True)
-    np.fill_diagonal(before, np.arange(n))
-    return nodes, ways, before
-
-
-def free_space_covariance(floor: Floor, position: np.ndarray, heading: float,
-                          reach: float) -> np.ndarray | None:
-    """What the walls around ``position`` (2,) [m] know of it: a measurement covariance
-    (2, 2) [m^2] on the axes along and across ``heading`` [rad], or None if neither axis
-    meets walls within ``reach`` [m] on both sides.
-
-    Along each axis the walker is somewhere between the first walls either side (a and b
-    metres away, found with the floor's segment query), taken as uniform over that
-    extent: the mean squared error of the estimate is (a^3 + b^3) / (3 (a + b)). An axis
-    open beyond ``reach`` on either side is not measured.
-    """
-    c, s = math.cos(heading), math.sin(heading)
-    x, y = float(position[0]), float(position[1])
-    r = reach
-    p0 = np.array([[x, y], [x, y], [x, y], [x, y]])
-    p1 = np.array([[x + r * c, y + r * s], [x - r * s, y + r * c],
-                   [x - r * c, y - r * s], [x + r * s, y - r * c]])   # +-along, +-across
-    hit, frac, _ = floor.first_wall_hit(p0, p1)
-    var = [UNKNOWN_VARIANCE, UNKNOWN_VARIANCE]
-    for k in (0, 1):
-        if hit[k] and hit[k + 2]:
-            a, b = r * float(frac[k]), r * float(frac[k + 2])
-            var[k] = max((a ** 3 + b ** 3) / (3.0 * max(a + b, 1e-9)), 1e-4)
-    if var[0] == var[1] == UNKNOWN_VARIANCE:
-        return None
-    va, vc = var
-    xy = (va - vc) * c * s
-    return np.array([[va * c * c + vc * s * s, xy], [xy, va * s * s + vc * c * c]])
-
-
-def _with_z(xy: np.ndarray, step: OdometryStep) -> np.ndarray:
-    return np.array([xy[0], xy[1], step.proposed[2]])

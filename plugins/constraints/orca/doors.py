@@ -18,6 +18,8 @@ import numpy as np
 
 from firenav_framework.building.index import SegmentIndex
 
+from ..segment_hits import SegmentHits
+
 
 @dataclass(frozen=True)
 class RangeFix:
@@ -33,20 +35,21 @@ class DoorTable:
 
     def __init__(self, floor) -> None:
         gaps = list(floor.doors) + list(floor.openings)
-        self._walls = floor.wall_index
+        self._walls = SegmentHits(floor.wall_index)
         self.ids = [g.id for g in gaps]
         self.centers = np.array([g.center for g in gaps], float).reshape(-1, 2)
         self.axes = np.array([g.axis for g in gaps], float).reshape(-1, 2)
-        self._gaps = SegmentIndex(np.array([g.jambs for g in gaps], float).reshape(-1, 2, 2))
+        self._gaps = SegmentHits(SegmentIndex(np.array([g.jambs for g in gaps],
+                                                       float).reshape(-1, 2, 2)))
 
     def passed(self, p0: np.ndarray, p1: np.ndarray) -> tuple[int, float] | None:
         """The door whose gap (jamb to jamb) the move ``p0`` -> ``p1`` (2,) [m] crosses
         first, and the fraction of the move there; None when it crosses none."""
         if not len(self):
             return None
-        hit, frac, idx = self._gaps.first_hit(np.asarray(p0, float)[None, :2],
-                                              np.asarray(p1, float)[None, :2])
-        return (int(idx[0]), float(frac[0])) if hit[0] else None
+        frac, idx = self._gaps.first_hit(np.asarray(p0, float)[None, :2],
+                                         np.asarray(p1, float)[None, :2])
+        return (int(idx[0]), float(frac[0])) if idx[0] >= 0 else None
 
     def __len__(self) -> int:
         return len(self.ids)

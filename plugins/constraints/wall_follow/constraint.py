@@ -39,6 +39,8 @@ from firenav_framework.capabilities.odometry_correction import (OdometryCorrecti
                                                                 StepCorrection)
 from firenav_framework.geometry import Rigid2D
 
+from ..corrections import correction
+from ..segment_hits import FloorWalls
 from ..turn_history import TurnHistory
 
 __all__ = ["WallFollowConstraint", "wall_alongside"]
@@ -120,10 +122,10 @@ class WallFollowConstraint(OdometryCorrection):
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
         self.runs: PerAgent[_Run] = PerAgent(lambda agent: _Run())
-        self._building = None
+        self._walls: FloorWalls | None = None
 
     def start(self) -> None:
-        self._building = self.ctx.building
+        self._walls = FloorWalls(self.ctx.building)
 
     def reset(self, agent: str) -> None:
         self.runs.reset(agent)
@@ -150,9 +152,9 @@ class WallFollowConstraint(OdometryCorrection):
             # not straight (yet): keep the run as long as a straight tail of it
             self._trim(run, p.follow_distance)
             return None
-        floor = self._building.floors[self._building.floor_of_z(step.prev[2])]
-        near = floor.walls_near(0.5 * (a + b), p.follow_range + 0.5 * n)
-        found = wall_alongside(a, b, floor.walls[near], p.follow_range, p.max_angle)
+        walls = self._walls.at_z(step.prev[2])
+        near = walls.near(0.5 * (a + b), p.follow_range + 0.5 * n)
+        found = wall_alongside(a, b, walls.segments[near], p.follow_range, p.max_angle)
         if found is None or abs(found[0]) < p.min_angle:
             return None
         angle = -found[0]
@@ -160,11 +162,10 @@ class WallFollowConstraint(OdometryCorrection):
         pos = step.proposed[:2]
         update = Rigid2D.rotation_about(angle, pos + p.pivot * (a - pos))
         moved = update.apply(pos)
-        if p.pivot > 0 and floor.crosses_wall(np.array([step.prev[:2], pos]),
-                                              np.array([moved, moved])).any():
+        if p.pivot > 0 and walls.crosses(np.array([step.prev[:2], pos]),
+                                         np.array([moved, moved])).any():
             update, moved = Rigid2D.rotation_about(angle, pos), pos
-        return StepCorrection(position=np.array([moved[0], moved[1], step.proposed[2]]),
-                              update=update, event="wall_follow")
+        return correction(step, moved, update=update, event="wall_follow")
 
     @staticmethod
     def _trim(run: _Run, length: float) -> None:

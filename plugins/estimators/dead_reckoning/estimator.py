@@ -308,12 +308,14 @@ class DeadReckoningEstimator(Estimator):
     def _contradicts(self, cov_xy: np.ndarray, off: np.ndarray) -> bool:
         """Whether a correction ``off`` (2,) [m] from the odometry's prediction is beyond
         the contradiction gate of the covariance ``cov_xy`` (2, 2) [m^2]."""
-        if math.hypot(off[0], off[1]) < 1e-6:
+        x, y = float(off[0]), float(off[1])
+        if math.hypot(x, y) < 1e-6:
             return False               # rounding, not a correction
-        try:
-            m2 = float(off @ np.linalg.solve(cov_xy, off))
-        except np.linalg.LinAlgError:
-            return True
+        a, b, d = float(cov_xy[0, 0]), float(cov_xy[0, 1]), float(cov_xy[1, 1])
+        det = a * d - b * b
+        if not det > 0.0:
+            return True                # singular: no room for any correction
+        m2 = (d * x * x - 2.0 * b * x * y + a * y * y) / det
         return not m2 <= self.params.drift.contradiction_gate
 
     def _bridge(self, st: _AgentState, msg: Odometry, delta: np.ndarray) -> np.ndarray:

@@ -15,6 +15,8 @@ update's noise is chosen so that the posterior variance equals it).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from firenav_framework.capabilities.odometry_correction import UNKNOWN_VARIANCE
@@ -25,21 +27,31 @@ __all__ = ["fuse_position"]
 def fuse_position(cov: np.ndarray, meas: np.ndarray, independent: bool = True) -> np.ndarray:
     """The covariance (n, n) after fusing a position measurement of covariance ``meas``
     (2, 2) [m^2] on states 0 and 1 (x, y [m]) of ``cov`` (n, n)."""
-    values, axes = np.linalg.eigh(0.5 * (meas + meas.T))
     out = cov
-    n = cov.shape[0]
-    for r, u in zip(values, axes.T):
+    for r, ux, uy in _principal_axes(meas):
         if not 0.0 < r < 0.5 * UNKNOWN_VARIANCE:
             continue
-        h = np.zeros(n)
-        h[:2] = u
-        ph = out @ h
-        prior = float(h @ ph)
+        ph = out[:, 0] * ux + out[:, 1] * uy        # P h, h = (ux, uy, 0, ...)
+        prior = float(ph[0] * ux + ph[1] * uy)
         if not independent:
             if prior <= r:
                 continue                  # already known that well: nothing new
             r = r * prior / (prior - r)   # the noise whose update ends at variance r
         k = ph / (prior + r)
-        a = np.eye(n) - np.outer(k, h)
-        out = a @ out @ a.T + r * np.outer(k, k)
+        # Joseph form (I - k h') P (I - k h')' + r k k', as two rank-one steps
+        left = out - np.outer(k, ph)                # (I - k h') P
+        out = left - np.outer(left[:, 0] * ux + left[:, 1] * uy, k) + r * np.outer(k, k)
     return out
+
+
+def _principal_axes(meas: np.ndarray) -> tuple[tuple[float, float, float], ...]:
+    """The variances [m^2] and unit axes of the symmetric part of ``meas`` (2, 2), the
+    smaller variance first (as ``numpy.linalg.eigh``)."""
+    a, d = float(meas[0, 0]), float(meas[1, 1])
+    b = 0.5 * (float(meas[0, 1]) + float(meas[1, 0]))
+    half = 0.5 * (a - d)
+    big = 0.5 * (a + d) + math.hypot(half, b)
+    small = (a * d - b * b) / big if big != 0.0 else 0.0   # no cancellation when a >> d
+    angle = 0.5 * math.atan2(b, half)                  # direction of the larger variance
+    c, s = math.cos(angle), math.sin(angle)
+    return (small, -s, c), (big, c, s)
