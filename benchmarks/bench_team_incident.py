@@ -1,14 +1,17 @@
 """The incident's report tables: per firefighter, INS alone, each single method and
-team_fusion on the same runs, and the ablations (no tags, no breadcrumbs, no UWB, no plan).
+team_fusion on the same runs, and the ablations (no tags, no breadcrumbs, no UWB, no plan,
+no barometer).
 
 One run per seed of ``pipelines/incident.yaml`` with the ablations added to it as extra
 estimators (so every row of a seed comes from the same simulated data):
 
 * ``team_no_tags``   team_fusion without the RFID EKF's poses;
 * ``team_no_bc``     without breadcrumb GEN's poses;
-* ``team_no_uwb``    with ``mm_no_uwb`` (ORCA map matching without the anchor) in place of ``mm``;
+* ``team_no_uwb``    with ``mm_no_uwb`` (ORCA map matching without the anchor) in place of ``mm``
+                     (with ``mm``'s input settings);
 * ``team_no_plan``   without the plan-based methods (particle filter, ORCA, the RFID EKF,
-                     whose tag sites are the plan's doors): INS alone and GEN.
+                     whose tag sites are the plan's doors): INS alone and GEN;
+* ``team_no_baro``   without the barometer's height (its floor vote).
 
     python benchmarks/bench_team_incident.py --seeds 1000-1019 --workers 2 \
         --json out/team-incident.json --runs out/team-incident-runs
@@ -38,7 +41,7 @@ PIPELINE = ROOT / "pipelines" / "incident.yaml"
 METHODS = {"dr": "INS alone", "pf": "particle filter", "mm": "ORCA + UWB", "ekf": "RFID EKF",
            "gen": "breadcrumb GEN", "team": "team_fusion"}
 ABLATIONS = {"team": "all sources", "team_no_tags": "no tags", "team_no_bc": "no breadcrumbs",
-             "team_no_uwb": "no UWB", "team_no_plan": "no plan"}
+             "team_no_uwb": "no UWB", "team_no_plan": "no plan", "team_no_baro": "no barometer"}
 
 
 def ablation_pipeline(path: Path = PIPELINE) -> dict:
@@ -57,11 +60,13 @@ def ablation_pipeline(path: Path = PIPELINE) -> dict:
         v = copy.deepcopy(team)
         v["id"] = name
         v["input"] = [s for s in team["input"] if s.split(".")[0] not in drop] + list(add)
+        if "mm_no_uwb.pose" in add and "mm.pose" in v.get("inputs", {}):
+            v["inputs"]["mm_no_uwb.pose"] = v["inputs"]["mm.pose"]   # the same method's settings
         return v
 
     est += [variant("team_no_tags", {"ekf"}), variant("team_no_bc", {"gen"}),
             variant("team_no_uwb", {"mm"}, ("mm_no_uwb.pose",)),
-            variant("team_no_plan", {"pf", "mm", "ekf"})]
+            variant("team_no_plan", {"pf", "mm", "ekf"}), variant("team_no_baro", {"baro"})]
     spec["sinks"] = []
     return spec
 

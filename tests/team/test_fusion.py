@@ -13,7 +13,7 @@ from firenav_framework.integrity import gaussian_protection_radius
 from firenav_framework.testing import Session
 from firenav_plugins.estimators.team_fusion import TeamFusionEstimator
 from firenav_plugins.estimators.team_fusion.quality import InputQuality
-from firenav_plugins.estimators.team_fusion.fusion import (chi2_2dof_quantile,
+from firenav_plugins.estimators.team_fusion.fusion import (chi2_2dof_quantile, gate_matrix,
                                                            consistent_hypotheses,
                                                            covariance_intersection)
 
@@ -244,3 +244,25 @@ def test_a_step_is_published_again_when_an_input_that_was_not_waited_for_answers
     # with the default wait a skipped step still holds the next one for a: once each
     rec = Session(TeamFusionEstimator, {}).run(msgs)
     assert [p.t for p in rec.on("pose")] == [2.0, 3.0, 4.0, 5.0, 6.0]
+
+
+def test_the_gate_lets_adjacent_floors_agree_and_floors_two_apart_contradict():
+    means = np.zeros((3, 2))
+    covs = np.array([np.eye(2)] * 3)
+    ok = gate_matrix(means, covs, [1, 2, 0], chi2_2dof_quantile(0.999))
+    assert ok[0, 1] and ok[0, 2]         # one floor apart: the stairs
+    assert not ok[1, 2]                  # two apart: a contradiction
+
+
+def test_on_the_stairs_a_tight_input_a_floor_ahead_is_fused_not_out_voted():
+    # on a flight the methods switch floor at their own moments: the tight input (a tag
+    # fix) already names floor 2 while three looser ones, sharing one drift 6 m off,
+    # still name floor 1; the fused position is the tight input's, and nothing is left out
+    poses, session, _ = _run(lambda t, x: [
+        ("ekf.pose", _pose(t, x, 0.0, 0.5, floor=2)),
+        ("dr.pose", _pose(t, x + 6.0, 0.0, 8.0, floor=1)),
+        ("mm.pose", _pose(t, x + 6.0, 0.3, 2.2, floor=1)),
+        ("pf.pose", _pose(t, x + 6.0, -0.3, 2.2, floor=1))], {"quality": {"enabled": False}})
+    assert "rejected_inputs" not in session.stats.counts["under_test"]
+    for p in poses[4:]:
+        assert abs(p.position[0] - p.t) < 0.6 and abs(p.position[1]) < 0.3

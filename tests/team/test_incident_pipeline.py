@@ -96,6 +96,21 @@ def test_every_method_and_the_fusion_run_for_their_crews(run):
         run.stats.counts["gen"].get("ranges_near", 0) > 0
 
 
+def test_the_barometers_heights_reach_team_fusion_for_the_crews_wearing_one(run):
+    # crews A and B wear barometers, crew C (ff4) does not: the heights, zeroed at the
+    # entrance, arrive and are kept for the floor vote; none is refused
+    assert run.stats.messages["baro.height"] > 0
+    team = run.components["team"]
+    for agent in ("ff1", "ff2", "ff3"):
+        baro = team.state[agent].baro
+        assert baro is not None, agent
+        truth = run.truth[agent]
+        z = float(np.interp(baro.t, truth.t, truth.position[:, 2]))
+        assert abs(baro.height - z) < 1.5, agent       # the floor's level to within a storey's half
+    assert team.state["ff4"].baro is None
+    assert "bad_heights" not in run.stats.counts["team"]
+
+
 def test_team_fusion_beats_ins_alone_and_keeps_the_floor(run):
     team, ins = _pooled(run, "team.pose"), _pooled(run, "dr.pose")
     assert team.rmse_m < ins.rmse_m

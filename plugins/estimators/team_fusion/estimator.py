@@ -18,7 +18,8 @@ and publishes one :class:`PoseEstimate` per odometry step (a step twice when cor
    other inputs (:mod:`.quality`), applied before the gate: an input that contradicts
    the others widens until it agrees, the tightest one is not out-voted.
 3. **Gate.** Two inputs contradict each other when their difference lies beyond the
-   chi-square gate with both covariances, or they name different floors. The largest
+   chi-square gate with both covariances, or they name floors more than one apart
+   (one apart is the stairs, where the methods switch floor at different moments). The largest
    set of mutually consistent inputs is fused; an input outside it is left out,
    counted (``rejected_inputs``, ``rejected:<stream>``) and reported with the place.
 4. **Fuse.** Covariance intersection of the set (:mod:`.fusion`): the inputs share the

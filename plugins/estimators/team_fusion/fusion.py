@@ -103,10 +103,13 @@ def gate_matrix(means: np.ndarray, covs: np.ndarray, floors: list[int | None],
                 threshold: float) -> np.ndarray:
     """(n, n) bool: are estimates i and j consistent?
 
-    Consistent: on the same floor (or one floor unknown) and the Mahalanobis distance of
-    the difference with both covariances, ``d^T (P_i + P_j)^-1 d``, at most ``threshold``
-    (a chi-square quantile, 2 degrees of freedom). ``P_i + P_j`` ignores the positive
-    correlation of the inputs, so the gate errs towards keeping an input.
+    Consistent: on the same or adjacent floors (or one floor unknown) and the
+    Mahalanobis distance of the difference with both covariances, ``d^T (P_i + P_j)^-1 d``,
+    at most ``threshold`` (a chi-square quantile, 2 degrees of freedom). ``P_i + P_j``
+    ignores the positive correlation of the inputs, so the gate errs towards keeping an
+    input. Adjacent floors are the stairs: each method switches floor at its own moment
+    of a flight (its own height evidence), so a floor apart there says nothing about the
+    horizontal position; the floor itself is the vote's.
     """
     n = len(means)
     ok = np.ones((n, n), bool)
@@ -114,8 +117,8 @@ def gate_matrix(means: np.ndarray, covs: np.ndarray, floors: list[int | None],
     for i, j in itertools.combinations(range(n), 2):
         m2 = _mahalanobis2(float(means[i][0] - means[j][0]), float(means[i][1] - means[j][1]),
                            sym[i][0] + sym[j][0], sym[i][1] + sym[j][1], sym[i][2] + sym[j][2])
-        same_floor = floors[i] is None or floors[j] is None or floors[i] == floors[j]
-        ok[i, j] = ok[j, i] = same_floor and m2 <= threshold
+        near_floor = floors[i] is None or floors[j] is None or abs(floors[i] - floors[j]) <= 1
+        ok[i, j] = ok[j, i] = near_floor and m2 <= threshold
     return ok
 
 
