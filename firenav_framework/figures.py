@@ -33,10 +33,11 @@ def save_figure(fig: Any, path: Path, *, dpi: int = 110, tight: bool = True) -> 
 def add_position_ellipse(ax: Any, xy: np.ndarray, cov: np.ndarray, color: str, *,
                          lw: float) -> bool:
     """Draw the 2-sigma ellipse of the horizontal position covariance ``cov[:2, :2]``
-    [m^2] about ``xy`` (ENU [m]) on ``ax``; False (nothing drawn) when it is not finite."""
+    [m^2] about ``xy`` (ENU [m]) on ``ax``; False (nothing drawn) when either is not
+    finite."""
     from matplotlib.patches import Ellipse
     c = cov[:2, :2]
-    if not np.all(np.isfinite(c)):
+    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(xy))):
         return False
     w, v = np.linalg.eigh(c)
     axes_len = 2 * 2.0 * np.sqrt(np.maximum(w, 0.0))  # full axes of the 2-sigma ellipse

@@ -62,3 +62,21 @@ def test_track_plot_draws_the_same_png_in_a_renderer_process(tmp_path):
     with background_rendering():
         run_component(TrackPlotSink, {}, msgs, building=building, output_dir=tmp_path / "b")
     assert (tmp_path / "b" / "tracks.png").read_bytes() == (tmp_path / "a" / "tracks.png").read_bytes()
+
+
+def test_position_ellipse_is_drawn_only_where_position_and_covariance_are_finite():
+    """A pose with a NaN position (bad input the conformance suite feeds) gets no ellipse,
+    so matplotlib never transforms a NaN centre; a finite one gets its 2-sigma ellipse
+    whose full axes are 4 sigma (analytic: sigma 1 m and 0.5 m -> 4 m and 2 m)."""
+    from firenav_framework.figures import add_position_ellipse, pyplot
+    plt = pyplot()
+    fig, ax = plt.subplots()
+    cov = np.diag([1.0, 0.25, 0.0])
+    assert not add_position_ellipse(ax, np.array([np.nan, 0.0]), cov, "k", lw=1)
+    assert not add_position_ellipse(ax, np.zeros(2), np.full((3, 3), np.nan), "k", lw=1)
+    assert len(ax.patches) == 0
+    assert add_position_ellipse(ax, np.array([2.0, 3.0]), cov, "k", lw=1)
+    (e,) = ax.patches
+    assert sorted([e.width, e.height]) == [2.0, 4.0]
+    assert tuple(e.center) == (2.0, 3.0)
+    plt.close(fig)
