@@ -61,6 +61,18 @@ def test_known_entry_pose_maps_the_ins_frame_onto_the_building():
                                L_PATH[1:], atol=1e-12)
 
 
+def test_corrected_odometry_passes_the_ins_drift_rate_on():
+    """The INS's lasting heading drift-rate spread (``Odometry.yaw_drift_rate_sigma``) is a
+    property of the INS: the building-frame odometry dead_reckoning re-publishes carries
+    it unchanged, so a consumer downstream reads the one value the INS published."""
+    sigma = math.radians(0.17)
+    msgs = [replace(m, yaw_drift_rate_sigma=sigma) for m in ins_steps(L_PATH)]
+    rec, _ = run(POSE, msgs)
+    odo = rec.on("odometry")
+    assert len(odo) == len(msgs)
+    assert all(o.yaw_drift_rate_sigma == sigma for o in odo)
+
+
 def test_entrance_alignment_uses_the_buildings_entrance():
     b = load_building(bundled_plan("corridor"))
     ent = b.entrances[0]

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -134,6 +135,33 @@ def straight_walk(n=60, agent="ff1"):
         out.append(Odometry(t=float(k), agent=agent, t_start=k - 1.0, delta=delta, dheading=0.0,
                             cov=np.eye(4) * 1e-4, position=pos.copy(), heading=0.0))
     return out
+
+
+class RecordOdometry(ParticleConstraint):
+    """Keeps the odometry of every step the filter hands its constraints."""
+
+    name = "record_odometry"
+
+    def replacements(self, step):
+        self.seen = [*getattr(self, "seen", []), step.odometry]
+        return None
+
+
+def test_steps_summed_over_the_update_interval_keep_the_ins_drift_rate(flat):
+    """Odometry summed to the update interval (2 s here: two 1 s steps a filter step) is
+    one merged message; it still carries the INS's ``yaw_drift_rate_sigma`` (a property
+    of the INS, not of the summing), and its span and displacement are the two steps'."""
+    pf, _, _ = make_component(ParticleFilterEstimator,
+                              {"start": pose_start(5.0, 5.0), "update_interval": 2.0},
+                              building=flat)
+    rec = make_component(RecordOdometry, {}, building=flat, cid="rec")[0]
+    pf.constraints.append(rec)
+    sigma = np.radians(0.17)
+    for msg in straight_walk(4):
+        pf.handle("odo", replace(msg, yaw_drift_rate_sigma=sigma))
+    assert [(o.t_start, o.t) for o in rec.seen] == [(0.0, 2.0), (2.0, 4.0)]
+    np.testing.assert_allclose([o.delta[0] for o in rec.seen], [0.1, 0.1])
+    assert all(o.yaw_drift_rate_sigma == sigma for o in rec.seen)
 
 
 def test_map_error_diagnostic_fires_above_3_m2_and_clears(flat):

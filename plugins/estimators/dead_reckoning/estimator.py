@@ -290,7 +290,8 @@ class DeadReckoningEstimator(Estimator):
         self.ctx.publish("odometry", Odometry(
             t=msg.t, agent=msg.agent, device=msg.device, t_start=msg.t - dt, delta=move,
             dheading=msg.dheading + dangle, cov=q, position=position.copy(),
-            heading=heading, motion=msg.motion))
+            heading=heading, motion=msg.motion,
+            yaw_drift_rate_sigma=msg.yaw_drift_rate_sigma))
 
     def _step_noise(self, st: _AgentState, msg: Odometry, delta: np.ndarray) -> np.ndarray:
         """The step's odometry covariance (4, 4) in the building frame, with the floors for

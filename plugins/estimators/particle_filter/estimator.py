@@ -227,7 +227,7 @@ class ParticleFilterEstimator(Estimator):
         odo = msg if pend.t_start == msg.t_start else Odometry(
             t=msg.t, agent=agent, device=msg.device, t_start=pend.t_start, delta=pend.delta,
             dheading=pend.dheading, cov=msg.cov, position=msg.position, heading=msg.heading,
-            motion=msg.motion)
+            motion=msg.motion, yaw_drift_rate_sigma=msg.yaw_drift_rate_sigma)
         step = ParticleStep(agent=agent, t=msg.t, odometry=odo, before=before, particles=p,
                             history=st.history, ins_heading=msg.heading,
                             walk_offset=st.walk_offset, rng=rng, building=self.ctx.building,
