@@ -108,7 +108,7 @@ class JumpMonitor:
     evidence_m: float
     window_s: float = 5.0
     #: (time [s], shift x, shift y [m]) of the updates within the window
-    recent: list = field(default_factory=list)
+    recent: deque = field(default_factory=deque)
     #: metres walked since the last jump (inf: none yet)
     walked_since_m: float = math.inf
 
@@ -118,7 +118,7 @@ class JumpMonitor:
         self.walked_since_m += walked_m
         self.recent.append((t, float(shift_xy[0]), float(shift_xy[1])))
         while self.recent and self.recent[0][0] < t - self.window_s:
-            self.recent.pop(0)
+            self.recent.popleft()
         sx = sum(r[1] for r in self.recent)
         sy = sum(r[2] for r in self.recent)
         if math.hypot(sx, sy) > self.jump_m:
