@@ -248,6 +248,32 @@ def test_floor_changes_on_the_stair():
     assert rec.on("pose")[-1].position[2] == pytest.approx(3.0, abs=0.5)
 
 
+def _two_storeys_with_a_stair():
+    sk = PlanSketch("stairs")
+    for level in range(2):
+        f = sk.floor(3.0 * level, 3.0)
+        f.room(f"r{level}", (0, 0, 10, 8))
+    sk.floors[0].stair("s", [(2, 2), (8, 2)], floor_to=1, width=1.2)   # footprint y 1.4-2.6
+    return sk.build()
+
+
+@pytest.mark.parametrize("margin, y, expected", [
+    (0.0, 2.0, 1),     # on the footprint: climbs
+    (0.0, 3.0, 0),     # 0.4 m beside it: the climb is reset at every update
+    (1.0, 3.0, 1),     # ... unless within the margin
+    (1.0, 6.0, 0),     # 3.4 m away: vertical drift never changes the floor
+])
+def test_stair_margin_lets_a_particle_beside_the_flight_finish_its_climb(margin, y, expected):
+    from firenav_plugins.estimators.particle_filter.stairs import StairRegions
+    regions = StairRegions(_two_storeys_with_a_stair(), margin)
+    p = Particles.create(np.column_stack([np.linspace(2.5, 7.5, 50), np.full(50, y)]), 0.0)
+    changes = sum(regions.apply(p, 0.3) for _ in range(8))    # 2.4 m up in 0.3 m steps
+    assert np.all(p.floor == expected)
+    assert changes == (50 if expected else 0)
+    # the climb beyond half the rise is kept on the new floor: 2.4 - 3.0 m
+    assert np.allclose(p.climb, -0.6 if expected else 0.0)
+
+
 def test_plugin_conformance(flat):
     check_plugin(ParticleFilterEstimator, {"particles": 50}, sample_input=[("odo", m) for m in straight_walk(4)]
                  + [("truth", GroundTruth(t=5.0, agent="ff1", position=np.zeros(3)))],

@@ -54,7 +54,7 @@ from .motion import propagate
 from .params import ParticleFilterParams
 from .particles import ParticleSummary, local_log_weight, normalise_log_weights
 from .resampling import replace_removed, resample_indices
-from .stairs import apply_stairs
+from .stairs import StairRegions
 from .trust import (ContradictionMonitor, JumpMonitor, PlanEvidenceMonitor,
                     cloud_protection_radius, retained_fraction, roughen)
 
@@ -115,6 +115,7 @@ class ParticleFilterEstimator(Estimator):
         self.noise = params.motion.noise()
         self.crawl_noise = params.motion.noise(crawl=True)
         self.state: PerAgent[_AgentState] = PerAgent(self._new_agent)
+        self._stairs: StairRegions | None = None
 
     # ------------------------------------------------------------------ lifecycle
     def _new_agent(self, agent: str) -> _AgentState:
@@ -222,7 +223,9 @@ class ParticleFilterEstimator(Estimator):
         noisy_s = max(0.0, msg.t - pend.t_start - pend.quiet_s)
         noise = self.crawl_noise if pend.crawl else self.noise
         propagate(p, pend.delta[:2], noisy_s, noise, rng, drift_s=msg.t - pend.t_start)
-        apply_stairs(p, float(pend.delta[2]), self.ctx.building)
+        if self._stairs is None:
+            self._stairs = StairRegions(self.ctx.building, self.params.stairs.margin)
+        self._stairs.apply(p, float(pend.delta[2]))
         propagated_mean = p.weights @ p.xy if st.jump is not None else None
         odo = msg if pend.t_start == msg.t_start else Odometry(
             t=msg.t, agent=agent, device=msg.device, t_start=pend.t_start, delta=pend.delta,

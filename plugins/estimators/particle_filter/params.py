@@ -142,6 +142,14 @@ class Trust(Params):
                                "plan_evidence multiplies the retained shares")
 
 
+class Stairs(Params):
+    """Where particles change floor (:mod:`.stairs`)."""
+
+    margin: float = param(1.0, unit="m", ge=0, le=5, description="how far outside a stair's "
+                          "footprint a particle still accumulates the odometry's climb and may "
+                          "change floor (0: on the footprint only)")
+
+
 class ParticleFilterParams(Params):
     particles: int = param(500, gt=0, le=100_000, description="particles per firefighter (N_p, §V-B)")
     start: Start = param(DEFAULT_START, description=(
@@ -154,6 +162,7 @@ class ParticleFilterParams(Params):
     injection: Injection = param(Injection(), description="particles injected by constraints")
     map_error: MapError = param(MapError(), description="map-error monitor (§V-E)")
     integrity: IntegrityParams = param(IntegrityParams(), description="when a pose is trusted")
+    stairs: Stairs = param(Stairs(), description="floor changes on stairs")
     trust: Trust = param(Trust(), description="protection radius and contradiction monitor")
     update_interval: float = param(0.5, unit="s", ge=0, description="odometry is summed to at "
                                    "least this interval per update (2 Hz in §V-B)")
