@@ -34,6 +34,9 @@ class RssiBreadcrumbSensor(Sensor):
     inputs = (RssiReading, BreadcrumbDrop, RawFrame)
     outputs = {"range": Range, "encounters": Range, "moved": BreadcrumbDrop,
                "drops": BreadcrumbDrop}
+    #: A dropped breadcrumb stays where it fell: reset(agent) keeps it, so the same drop
+    #: again is not published twice.
+    world_outputs = ("drops",)
 
     class Params(Params):
         rssi_1m_dbm: float = param(-40.0, unit="dBm", description="RSSI at 1 m (breadcrumb "
