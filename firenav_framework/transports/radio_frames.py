@@ -35,7 +35,7 @@ from ..codecs.twr_report import TwrReport
 from ..messages import (BreadcrumbDrop, Message, Range, RawFrame, RssiReading, TagDeployment,
                         TagDetection)
 
-__all__ = ["RadioEncoder", "LINE_LINK", "RADIO_CODECS"]
+__all__ = ["RadioEncoder", "LINE_LINK", "RADIO_CODECS", "message_kind", "plan_anchors"]
 
 #: The name of the text-line link (a serial port or a UDP address) in the player.
 LINE_LINK = "lines"
@@ -63,9 +63,10 @@ def message_kind(msg: Message) -> str | None:
 class RadioEncoder:
     """Encodes the radio messages of one play (see the module docstring).
 
-    ``team`` returns the roster's firefighters by position (it grows as the IMUs are
-    assigned); ``anchors`` the plan's anchor ids; ``announce`` is told each new tag
-    and anchor number (a text line).
+    ``team`` returns the roster's firefighters by position, the list itself (it grows as
+    the IMUs are assigned; a UWB tag of a firefighter not in it yet appends them, as
+    their IMU would); ``anchors`` the plan's anchor ids; ``announce`` is told each new
+    tag and anchor number (a text line); ``sent`` counts the messages encoded per kind.
     """
 
     team: Callable[[], list[str]]
@@ -86,13 +87,15 @@ class RadioEncoder:
     def encode(self, msg: Message) -> tuple[str, list[EncodedFrame]] | None:
         """``(link, frames)`` of one message; None for a message it does not send."""
         kind = message_kind(msg)
+        if kind == "frames":
+            link = _FRAME_LINKS.get(msg.transport)
+            if link is None:
+                return None
+            self.sent[kind] += 1
+            return link, [EncodedFrame(msg.t, msg.channel, bytes(msg.data))]
         if kind is None:
             return None
         self.sent[kind] += 1
-        if kind == "frames":
-            link = _FRAME_LINKS.get(msg.transport)
-            return None if link is None else (link, [EncodedFrame(msg.t, msg.channel,
-                                                                  bytes(msg.data))])
         if kind == "uwb":
             record: object = self._report(msg)
         elif kind == "rfid":
