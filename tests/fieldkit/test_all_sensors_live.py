@@ -47,7 +47,7 @@ CONTENT = {
     "radio.range": ("agent", "device", "a", "b", "range_m", "sigma_m", "method"),
     "uwb.range": ("agent", "a", "b", "range_m"),
 }
-MAX_DELAY, CLOCK_TOL = 2.0, 0.5  # s: a radio frame's delivery delay; radios against IMUs
+MAX_DELAY, MEDIAN_DELAY, CLOCK_TOL = 5.0, 0.1, 1.0  # s (docstring)
 BARO_TOL, POS_TOL = 0.5, 5e-3  # m
 RMSE_TOL, P95_TOL, FLOOR_TOL = 0.3, 0.5, 0.03
 
@@ -137,7 +137,7 @@ def test_every_sensor_played_live_gives_the_offline_messages_and_poses(tmp_path)
         assert om.get(s), f"the scenario should give {s}"
         assert content(s, lm[s]) == content(s, om[s]), s
         delays += [a.t - b.t - clock for a, b in zip(lm[s], om[s])]
-    assert max(delays) <= MAX_DELAY and np.median(delays) <= 0.05
+    assert max(delays) <= MAX_DELAY and np.median(delays) <= MEDIAN_DELAY
 
     # UWB: live ranges are offline ranges, nearly all of them
     uwb_live, uwb_off = content("uwb.range", lm["uwb.range"]), content("uwb.range", om["uwb.range"])
