@@ -23,8 +23,10 @@ import can
 import yaml
 
 from firenav_framework.building.geojson_format import write_geojson
+from firenav_framework.cli.replay import replay_document
 from firenav_framework.messages import Message
-from firenav_framework.pipeline import load_pipeline, load_pipeline_text
+from firenav_framework.pipeline import (apply_overrides, load_pipeline, load_pipeline_text,
+                                        validate_document)
 from firenav_framework.runner import Runner, RunResult
 from firenav_framework.simulator import load_scenario, simulate
 from firenav_framework.transports.mavlink_link import mavutil
@@ -162,3 +164,17 @@ def _injecting(player: DevicePlayer, messages, inject: Inject):
     for msg in messages:
         inject(player, msg.t)
         yield msg
+
+
+def replay_run(live_out: Path, out: Path) -> dict[str, list[Message]]:
+    """``firenav replay`` of a live run's logs (its folder ``live_out``), in this process:
+    the tapped messages."""
+    doc = replay_document(str(LIVE), live_out / "raw")
+    done = apply_overrides(doc, [f"building={live_out / 'plan.geojson'}",
+                                 "sinks.live_view.port=0",
+                                 f"sinks.mavlink_out.url=udpout:127.0.0.1:{free_port()}"])
+    runner = Runner(validate_document(doc, overrides=done), output_dir=out)
+    tap = Tap()
+    runner.bus.taps.append(tap)
+    runner.run()
+    return dict(tap.messages)
