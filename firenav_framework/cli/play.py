@@ -127,7 +127,10 @@ def play(args: argparse.Namespace) -> int:
         if building is None:
             raise UsageError(f"--write-plan: {args.input} gives no plan")
         from ..building.geojson_format import write_geojson
-        write_geojson(building, args.write_plan)
+        try:
+            write_geojson(building, args.write_plan)
+        except OSError as exc:
+            raise UsageError(f"--write-plan {args.write_plan}: {exc}") from None
         _say(f"wrote the plan with its anchors to {args.write_plan}")
     mav_agents = set(filter(None, args.mavlink_agents.split(","))) if args.can else None
     if args.mavlink is None and mav_agents:
@@ -137,6 +140,11 @@ def play(args: argparse.Namespace) -> int:
     roster = (Roster.of_scenario(scenario, mav_agents) if scenario is not None
               else Roster(mavlink_agents=mav_agents))
     bus = conn = lines = None
+    if args.lines:      # first: a wrong port fails before any other link is open
+        try:
+            lines = open_line_output(args.lines)
+        except (OSError, ValueError) as exc:
+            raise UsageError(f"--lines {args.lines}: {exc}") from None
     if args.can:
         interface, _, channel = args.can.partition(":")
         opts = dict(o.split("=", 1) for o in args.can_option)
@@ -145,11 +153,6 @@ def play(args: argparse.Namespace) -> int:
         bus = can.Bus(interface=interface, channel=channel, **opts)
     if args.mavlink:
         conn = mavutil().mavlink_connection(args.mavlink, source_system=255)
-    if args.lines:
-        try:
-            lines = open_line_output(args.lines)
-        except (OSError, ValueError) as exc:
-            raise UsageError(f"--lines {args.lines}: {exc}") from None
     radio = RadioEncoder(team=lambda: roster.order, anchors=list(plan_anchors(building)),
                          announce=_say)
     player = DevicePlayer(can_bus=bus, mavlink=conn, lines=lines, speed=args.speed,
@@ -170,6 +173,8 @@ def play(args: argparse.Namespace) -> int:
         pass
     except ValueError as exc:  # a layout without room for a device
         raise UsageError(str(exc)) from None
+    except OSError as exc:     # a link went away: the serial port, a socket
+        raise UsageError(f"sending failed: {exc}") from None
     finally:
         if bus is not None:
             bus.shutdown()

@@ -67,3 +67,17 @@ def test_play_sends_the_radio_lines_and_says_what_it_could_not_send(tmp_path):
     assert "UWB tag ff1 -> TagId 1" in err and "UWB anchor uwb_entrance -> AnchorId 1" in err
     assert f"{len(got)} lines" in err
     assert [a.id for a in load_building(plan).anchors] == ["base", "uwb_entrance"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--lines", "udp:nohostport"], "--lines udp:nohostport: UDP line output must be udp:HOST:PORT"),
+    (["--lines", "/dev/no-such-port"], "--lines /dev/no-such-port: "),
+    (["--write-plan", "/no-such-dir/plan.geojson"], "--write-plan /no-such-dir/plan.geojson: "),
+])
+def test_a_bad_line_port_or_plan_file_is_a_located_error(args, message):
+    proc = subprocess.run(
+        [sys.executable, "-c", "import sys; from firenav_framework.cli import main; "
+         "sys.exit(main())", "play", str(SCENARIO), "--duration", "1", "--speed", "0",
+         "--mavlink", f"udpout:127.0.0.1:{free_port()}", *args],
+        capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr
