@@ -36,6 +36,7 @@ BUILTIN_CODECS: dict[str, str] = {
     "uwb_can": "firenav_framework.codecs.uwb_can:UwbCanCodec",
     "rfid_lines": "firenav_framework.codecs.rfid_lines:RfidLinesCodec",
     "baro_lines": "firenav_framework.codecs.baro_lines:BaroLinesCodec",
+    "breadcrumb_lines": "firenav_framework.codecs.breadcrumb_lines:BreadcrumbLinesCodec",
 }
 
 

@@ -192,3 +192,30 @@ class UdpLineLink(Link):
 
     def record_item(self, native: Any) -> Any:
         return None if native is OVERLONG else native
+
+
+class UdpLineSender:
+    """Sends each write as one datagram to ``host:port`` (the devices' side of a
+    :class:`UdpLineLink`)."""
+
+    def __init__(self, address: str):
+        host, _, port = address.rpartition(":")
+        if not host or not port.isdigit():
+            raise ValueError(f"UDP line output must be udp:HOST:PORT, got udp:{address}")
+        self.address = (host, int(port))
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+
+    def write(self, data: bytes) -> None:
+        self.sock.sendto(data, self.address)
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+def open_line_output(url: str) -> Any:
+    """Where a player writes text lines: ``udp:HOST:PORT`` (one datagram per line) or a
+    serial port (a device path such as a pty, or any pyserial URL); the object has
+    ``write(bytes)`` and ``close()``."""
+    if url.startswith("udp:"):
+        return UdpLineSender(url[4:])
+    return serial.serial_for_url(url, baudrate=115200)

@@ -1,4 +1,4 @@
-"""Plays IMU data onto live links as the real devices would (``firenav play``, tests, benchmarks).
+"""Plays sensor data onto live links as the real devices would (``firenav play``, tests, benchmarks).
 
 Frames are made by registered IMU codecs (:mod:`firenav_framework.codecs`), named per
 link: by default ``can_imu`` (the reference foot IMU's DBC) on CAN and ``mavlink_imu``
@@ -17,7 +17,10 @@ MAVLink's body frame is FRD, so blocks in FLU axes (the simulator's default) are
 as FRD (y and z negated, exactly); other device axes are sent as they are, as are all
 CAN frames (the reference device sends its case axes). Blocks are sent when the wall
 clock reaches their last sample time (``speed`` times faster), so the field kit
-receives them at a device's pace. The player only assigns and moves frames;
+receives them at a device's pace. The other sensors (UWB, RFID, barometer, breadcrumb
+radio) are encoded by :class:`~.radio_frames.RadioEncoder` and sent on the CAN bus or
+the text-line link (``lines``: anything with ``write(bytes)``, one line per frame) at
+their message time. The player only assigns and moves frames;
 :meth:`DevicePlayer.encode` and :meth:`DevicePlayer.transmit` are separate so tests
 can tamper with frames between.
 """
@@ -34,12 +37,15 @@ import can
 import numpy as np
 
 from ..codecs import Codec, EncodedFrame, get_codec
-from ..messages import ImuBlock
+from ..messages import ImuBlock, Message
+from .radio_frames import LINE_LINK, RadioEncoder
 
 #: The codec of each link unless the player is told otherwise.
 DEFAULT_CODECS = {"can": "can_imu", "mavlink": "mavlink_imu"}
 _FLU_TO_FRD = np.array([1.0, -1.0, -1.0])
-_LINK_NAMES = {"can": "CAN", "mavlink": "MAVLink"}
+_LINK_NAMES = {"can": "CAN", "mavlink": "MAVLink", LINE_LINK: "lines"}
+#: What ends each frame on the line link.
+LINE_END = b"\n"
 
 
 @dataclass(frozen=True)
@@ -141,20 +147,26 @@ class Roster:
 
 @dataclass
 class DevicePlayer:
-    """Sends ImuBlocks of assigned devices onto a CAN bus and/or a MAVLink connection.
+    """Sends ImuBlocks of assigned devices onto a CAN bus and/or a MAVLink connection,
+    and the other sensors' messages onto the CAN bus and the line link.
 
-    ``mavlink`` is anything with ``write(bytes)`` (a pymavlink connection, a socket
-    wrapper). ``codecs`` names the IMU codec of each link (:data:`DEFAULT_CODECS` for
-    the links it leaves out). ``assignments`` maps device ids to :class:`Assignment`;
-    blocks of other devices are not sent.
+    ``mavlink`` and ``lines`` are anything with ``write(bytes)`` (a pymavlink
+    connection, a serial port, a socket wrapper). ``codecs`` names the IMU codec of each
+    link (:data:`DEFAULT_CODECS` for the links it leaves out). ``assignments`` maps
+    device ids to :class:`Assignment`; blocks of other devices are not sent. ``radio``
+    encodes the other sensors (None: only IMUs are sent); a message whose link is not
+    there is counted in ``skipped`` (per link), not sent.
     """
 
     can_bus: can.BusABC | None = None
     mavlink: Any = None
+    lines: Any = None
     assignments: dict[str, Assignment] = field(default_factory=dict)
     speed: float = 1.0
     codecs: Mapping[str, str] = field(default_factory=dict)
-    sent: dict[str, int] = field(default_factory=lambda: {"can": 0, "mavlink": 0})
+    radio: RadioEncoder | None = None
+    sent: dict[str, int] = field(default_factory=lambda: {"can": 0, "mavlink": 0, LINE_LINK: 0})
+    skipped: dict[str, int] = field(default_factory=dict)
     _t0: tuple[float, float] | None = None
     _encoders: dict[str, Codec] = field(default_factory=dict)
 
@@ -199,7 +211,7 @@ class DevicePlayer:
         return a.link, self.codec(a.link).encode(block, address=a.address)
 
     def transmit(self, link: str, frames: Iterable[EncodedFrame]) -> int:
-        """Put encoded frames on ``link`` ("can" or "mavlink"); returns how many."""
+        """Put encoded frames on ``link`` ("can", "mavlink" or "lines"); returns how many."""
         n = 0
         if link == "can":
             for f in frames:
@@ -207,29 +219,45 @@ class DevicePlayer:
                                               is_extended_id=f.channel > 0x7FF))
                 n += 1
         else:
+            out = self.mavlink if link == "mavlink" else self.lines
+            end = LINE_END if link == LINE_LINK else b""
             for f in frames:
-                self.mavlink.write(f.data)
+                out.write(f.data + end)
                 n += 1
         self.sent[link] += n
         return n
 
-    def play(self, blocks: Iterable[ImuBlock], roster: Roster | None = None,
+    def play(self, messages: Iterable[Message], roster: Roster | None = None,
              stop: threading.Event | None = None,
              on_assign: Callable[[str, Assignment], None] | None = None) -> None:
-        """Pace and send ``blocks`` (time order); devices not yet assigned are assigned
-        by ``roster`` (and reported to ``on_assign(device, assignment)``). Ends early
-        when ``stop`` is set."""
-        for block in blocks:
+        """Pace and send ``messages`` (time order): ImuBlocks of devices not yet assigned
+        are assigned by ``roster`` (and reported to ``on_assign(device, assignment)``),
+        other messages go to :attr:`radio`. Ends early when ``stop`` is set."""
+        for msg in messages:
             if stop is not None and stop.is_set():
                 return
-            if block.device not in self.assignments and roster is not None:
-                a = self.assignment(block, roster)
+            if not isinstance(msg, ImuBlock):
+                encoded = None if self.radio is None else self.radio.encode(msg)
+                if encoded is not None:
+                    self.pace(msg.t)
+                    self.send_encoded(*encoded)
+                continue
+            if msg.device not in self.assignments and roster is not None:
+                a = self.assignment(msg, roster)
                 if on_assign is not None:
-                    on_assign(block.device, a)
-            self.pace(block.t)
-            self.send(block)
+                    on_assign(msg.device, a)
+            self.pace(msg.t)
+            self.send(msg)
 
     def send(self, block: ImuBlock) -> int:
         """Encode and send one block; returns the frames sent (0: device not assigned)."""
         encoded = self.encode(block)
         return 0 if encoded is None else self.transmit(*encoded)
+
+    def send_encoded(self, link: str, frames: list[EncodedFrame]) -> int:
+        """:meth:`transmit` when ``link`` is there; else count the frames in
+        :attr:`skipped` and send nothing. Returns the frames sent."""
+        if {"can": self.can_bus, "mavlink": self.mavlink, LINE_LINK: self.lines}[link] is None:
+            self.skipped[link] = self.skipped.get(link, 0) + len(frames)
+            return 0
+        return self.transmit(link, frames)

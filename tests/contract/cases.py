@@ -110,6 +110,12 @@ def _baro():
     return [BaroReading(1.0, "ff1/baro", 101325.25, 294.65), BaroReading(1.1, "base/baro", 101337.5)]
 
 
+def _radio():
+    from firenav_framework.codecs.breadcrumb_lines import RadioEvent
+    return [RadioEvent(1.0, "RSSI", "bc1", "ff3/radio", -61.0),
+            RadioEvent(2.0, "DROP", "ff3/dispenser", "bc2")]
+
+
 CODEC_SAMPLES.update({
     "can_imu": lambda: {"records": _imu_block(), "address": "node1"},
     "mavlink_imu": lambda: {"records": _imu_block(), "address": "sys1/comp1/imu0"},
@@ -118,4 +124,5 @@ CODEC_SAMPLES.update({
     "uwb_lines": lambda: {"records": _twr(), "address": "1"},
     "rfid_lines": lambda: {"records": _rfid(), "address": "ff1/rfid"},
     "baro_lines": lambda: {"records": _baro(), "address": "ff1/baro"},
+    "breadcrumb_lines": lambda: {"records": _radio(), "address": "base"},
 })

@@ -10,6 +10,7 @@ import pytest
 import firenav_framework.codecs as codecs
 from firenav_framework.codecs import BUILTIN_CODECS, Codec, UnknownCodec, get_codec, to_raw_frames
 from firenav_framework.codecs.baro_lines import BaroReading
+from firenav_framework.codecs.breadcrumb_lines import RadioEvent
 from firenav_framework.codecs.imu_sample import ImuSample
 from firenav_framework.codecs.rfid_lines import RfidEvent
 from firenav_framework.codecs.twr_report import TwrReport
@@ -26,6 +27,8 @@ RECORDS = {
                 RfidEvent(2.5, "TAG", "ff1/rfid", "E2AA", -48.5, 3)],
     BaroReading: [BaroReading(3.0, "ff1/baro", 101325.25, 294.65),
                   BaroReading(3.5, "base/baro", 98765.5)],
+    RadioEvent: [RadioEvent(4.0, "RSSI", "ff3/radio", "base", -67.5),
+                 RadioEvent(4.5, "DROP", "ff3/dispenser", "bc1")],
 }
 #: Largest round-trip error of an IMU codec's accel [m/s^2] and gyro [rad/s] (its quantisation).
 IMU_TOLERANCE = {"can_imu": (0.0025, 0.00025), "mavlink_imu": (1e-5, 1e-6),

@@ -24,6 +24,14 @@ relative measurement graph:
   Published as a
   :class:`BreadcrumbDrop` of the already-dropped node id (``agent`` empty, ``device``
   ``"kick_detector"``) at the time the change began: "this node was placed anew".
+* ``drops`` - every breadcrumb drop the sensor took in, once per node id (for the
+  estimators that place breadcrumbs where they were dropped).
+
+Inputs: ``RssiReading`` and ``BreadcrumbDrop`` messages (the simulator's), and
+``RawFrame`` s of a serial or UDP link decoded by the codec ``frames.codecs`` names for
+the transport (by default ``breadcrumb_lines``, docs/formats/breadcrumb-radio.md:
+``RSSI,<receiver>,<transmitter>,<dBm>`` and ``DROP,<agent>/dispenser,<node>``). Other
+devices' lines are counted (``other_lines``), broken ones counted and reported once.
 
 Impossible readings are counted and skipped, never passed on: RSSI above
 ``max_rssi_dbm`` (0 dBm: no receiver reads more than a transmitter sends at 2.4 GHz

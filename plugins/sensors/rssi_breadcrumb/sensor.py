@@ -2,8 +2,12 @@
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
-from firenav_framework import BreadcrumbDrop, Params, Range, RssiReading, Sensor, param
+from firenav_framework import BreadcrumbDrop, Params, Range, RawFrame, RssiReading, Sensor, param
+from firenav_framework.codecs import FrameError
+from firenav_framework.codecs.breadcrumb_lines import RadioEvent, radio_message
+from firenav_framework.codecs.selection import CodecSelection, TransportCodecs
 from firenav_framework.contract import Context
 
 from .encounters import EncounterDetector, EncounterRules, Episode
@@ -13,12 +17,26 @@ from .path_loss import range_sigma, rssi_to_range
 __all__ = ["RssiBreadcrumbSensor"]
 
 
+class Frames(CodecSelection):
+    """Codecs of the RawFrame inputs, per link transport."""
+
+    record: ClassVar[type] = RadioEvent
+
+    codecs: dict[str, str] = param({"serial": "breadcrumb_lines", "udp": "breadcrumb_lines"},
+                                   description="link transport -> codec decoding the radio "
+                                   "network's lines (docs/formats/breadcrumb-radio.md)")
+
+
 class RssiBreadcrumbSensor(Sensor):
     """Breadcrumb radio traffic -> RSSI ranges, encounter events and moved breadcrumbs."""
 
     name = "rssi_breadcrumb"
-    inputs = (RssiReading, BreadcrumbDrop)
-    outputs = {"range": Range, "encounters": Range, "moved": BreadcrumbDrop}
+    inputs = (RssiReading, BreadcrumbDrop, RawFrame)
+    outputs = {"range": Range, "encounters": Range, "moved": BreadcrumbDrop,
+               "drops": BreadcrumbDrop}
+    #: A dropped breadcrumb stays where it fell: reset(agent) keeps it, so the same drop
+    #: again is not published twice.
+    world_outputs = ("drops",)
 
     class Params(Params):
         rssi_1m_dbm: float = param(-40.0, unit="dBm", description="RSSI at 1 m (breadcrumb "
@@ -45,6 +63,8 @@ class RssiBreadcrumbSensor(Sensor):
         silent_s: float = param(60.0, unit="s", gt=0, description="a dropped breadcrumb "
                                 "nobody has heard for this long is reported silent (a dud "
                                 "if never heard; burned or lost if it fell silent)")
+        frames: Frames = param(Frames(), description="RawFrame inputs: the codec per "
+                               "transport and its options")
 
     def __init__(self, params: Params, ctx: Context) -> None:
         super().__init__(params, ctx)
@@ -57,17 +77,40 @@ class RssiBreadcrumbSensor(Sensor):
         self._link_t: dict[tuple[str, str], float] = {}   # node pair -> its last reading [s]
         self._silent: set[str] = set()          # breadcrumbs reported silent
         self._checked = -math.inf
+        self._codecs = TransportCodecs(p.frames, count=ctx.count, resolve=ctx.resolve)
 
     # -- input ------------------------------------------------------------------------------
     def handle(self, stream: str, msg) -> None:
-        if isinstance(msg, BreadcrumbDrop):
+        if isinstance(msg, RawFrame):
+            for event in self._decode(msg):
+                self.handle(stream, radio_message(event))
+        elif isinstance(msg, BreadcrumbDrop):
             if msg.agent:
                 self._agents.add(msg.agent)
             if msg.node_id not in self._fixed:
                 self._fixed[msg.node_id] = msg.t
-            return
-        if isinstance(msg, RssiReading):
+                self.ctx.publish("drops", msg)
+        elif isinstance(msg, RssiReading):
             self._reading(msg)
+
+    def _decode(self, frame: RawFrame) -> list[RadioEvent]:
+        """The radio events of a frame; broken lines are counted and reported once,
+        other devices' lines counted (``other_lines``)."""
+        codec = self._codecs.get(frame.transport)
+        if codec is None:
+            self.ctx.count("frames_not_lines")
+            return []
+        try:
+            events = codec.decode(frame)
+        except FrameError as exc:
+            self.ctx.count(exc.code)
+            self.ctx.warn_once(frame.t, "radio_bad_line", f"{frame.device or 'radio link'}: "
+                               f"{exc} (further broken lines are only counted)")
+            return []
+        if events is None:
+            self.ctx.count("other_lines")
+            return []
+        return events
 
     def _reading(self, msg: RssiReading) -> None:
         p = self.params

@@ -57,7 +57,8 @@ class UwbSensor(Sensor):
             reports = None if codec is None else codec.decode(frame)
         except FrameError as exc:
             self.ctx.count(exc.code)
-            self.ctx.log.debug("%s", exc)
+            self.ctx.report(frame.t, f"uwb_{exc.code}", f"UWB reports that could not be "
+                            f"decoded skipped; latest: {exc}", key=frame.device or "uwb link")
             return
         if reports is None:
             self.ctx.count("other_frames")
