@@ -7,8 +7,9 @@ indoor walks, ``docs/foot-ins.md``). A heading error turns every later step, so 
 position error it causes grows with the distance walked. :class:`PoseUncertainty`
 carries those errors in the INS frame, propagated step by step:
 
-* the drift rate, one constant per mission with sigma ``yaw_drift_rate_sigma`` of
-  ``steps.UnmodelledErrors`` (the odometry's, published on every message), adds
+* the drift rate, one constant per mission with sigma ``drift_rate_sigma`` (the poses'
+  own spread; by default the odometry's ``yaw_drift_rate_sigma`` of
+  ``steps.UnmodelledErrors``, published on every message, which it leaves alone), adds
   ``rate * duration`` to the heading (so the heading variance is ``(sigma t)^2``);
 * fast gaits (:class:`FastGaitErrors`) add a second lasting drift rate that acts only as
   fast as the step goes above a walking speed (impacts of 5-8 g: gyro g-sensitivity and
