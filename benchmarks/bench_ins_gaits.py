@@ -6,6 +6,8 @@
     .venv/bin/python benchmarks/bench_ins_gaits.py --tune           # choose the crawl levels
     .venv/bin/python benchmarks/bench_ins_gaits.py --integrity --seeds fresh --gaits run,walk
                                     # covariance, radius, trusted (seeds 2000-2019)
+    .venv/bin/python benchmarks/bench_ins_gaits.py --integrity --seeds 3000-3019
+                                    # any range A-B of seeds, both ends included
 
 Three scenarios of ``benchmarks/scenarios`` (the same corridor, the IMU of the real
 recordings, as worn): ``ins_walk`` (54 m), ``ins_crawl`` (kneel, then 34 m on hands and
@@ -83,6 +85,9 @@ SEEDS = {"tuning": range(100, 140), "report": range(1000, 1020), "fresh": range(
 #: ``--integrity``'s "no fast gait" row: the poses' covariance without the fast-gait errors
 #: (``pose_uncertainty.FastGaitErrors``), as it was before they were counted.
 NO_FAST_GAIT = {"integrity": {"speed_drift_sigma": 0.0, "long_swing_sigma": 0.0}}
+#: ``--integrity``'s "odometry's drift rate" row: the poses count the lasting heading drift
+#: rate with the odometry's spread (``odometry.yaw_drift_rate_sigma``), not their own.
+ODOMETRY_DRIFT = {"integrity": {"drift_rate_sigma": None}}
 #: device axes of the simulator's IMU frames -> FLU
 TO_FLU = {"FRD": np.array([1.0, -1.0, -1.0]), "FLU": np.ones(3)}
 ALIGN_DISTANCE = 5.0   # [m] the steps of the first this many metres fit the start pose
@@ -318,6 +323,7 @@ def report_integrity(seeds: range, gaits: list[str] | None = None) -> None:
     the simulated gaits, beside the covariance without the fast-gait errors and the
     filter's own covariance alone (the same runs)."""
     params, no_fast = ZuptInsParams(), ZuptInsParams(**NO_FAST_GAIT)
+    odometry_drift = ZuptInsParams(**ODOMETRY_DRIFT)
     print(f"Simulated gaits, seeds {seeds.start}-{seeds.stop - 1} ({len(seeds)} runs a row)\n")
     print("| scenario | covariance | runs | poses | NEES x,y (median of the runs') | 95 % "
           "ellipse holds the truth | error within the protection radius (99 % promised) | "
@@ -325,8 +331,9 @@ def report_integrity(seeds: range, gaits: list[str] | None = None) -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     for gait in gaits or SCENARIOS:
         recs = [record(gait, s) for s in seeds]
-        for p, own, label in ((params, False, "now"), (no_fast, False, "no fast gait"),
-                              (params, True, "filter's own")):
+        for p, own, label in ((params, False, "now"),
+                              (odometry_drift, False, "odometry's drift rate"),
+                              (no_fast, False, "no fast gait"), (params, True, "filter's own")):
             integrity_row(f"{gait} | {label}", [sim_integrity(p, r, own) for r in recs])
 
 
@@ -367,9 +374,22 @@ def tune_height() -> None:
         print(f"  {total:5.2f}  VICON {f[0]:.3f}  walks {f[1]:.3f}  stairs {f[2]:.3f}  {height}")
 
 
+def seed_range(text: str) -> range:
+    """``--seeds``: a named set (``tuning``, ``report``, ``fresh``) or ``A-B`` (both
+    included)."""
+    if text in SEEDS:
+        return SEEDS[text]
+    first, sep, last = text.partition("-")
+    if not (sep and first.isdigit() and last.isdigit() and int(first) <= int(last)):
+        raise argparse.ArgumentTypeError(
+            f"--seeds {text!r}: give one of {', '.join(sorted(SEEDS))} or a range A-B, A <= B")
+    return range(int(first), int(last) + 1)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", choices=sorted(SEEDS), default="report")
+    ap.add_argument("--seeds", type=seed_range, default="report", help="tuning (100-139), "
+                    "report (1000-1019), fresh (2000-2019) or a range A-B")
     ap.add_argument("--field", action="store_true", help="the field scenarios with crawling "
                     "and running instead of the gait set")
     ap.add_argument("--tune", action="store_true", help="choose the crawl levels (minutes)")
@@ -385,9 +405,9 @@ def main() -> None:
     elif args.tune_height:
         tune_height()
     elif args.integrity:
-        report_integrity(SEEDS[args.seeds], args.gaits.split(",") if args.gaits else None)
+        report_integrity(args.seeds, args.gaits.split(",") if args.gaits else None)
     else:
-        report(SEEDS[args.seeds], field=args.field)
+        report(args.seeds, field=args.field)
 
 
 if __name__ == "__main__":

@@ -432,16 +432,20 @@ def integrity_row(name: str, errs: list) -> None:
 
 def report_integrity(trials: list[ViconTrial], walks: list[IndoorWalk]) -> None:
     """NEES, ellipse and protection-radius containment of the ``pose`` output, beside
-    the filter's own covariance alone ("before": what the poses carried), the same runs;
-    the tuning and held-out halves apart."""
-    params = ZuptInsParams()
+    the poses counting the odometry's spread of the lasting drift rate (not their own,
+    ``integrity.drift_rate_sigma``) and the filter's own covariance alone ("before": what
+    the poses carried), the same runs; the tuning and held-out halves apart."""
+    now = ZuptInsParams()
+    odometry_drift = ZuptInsParams(integrity={"drift_rate_sigma": None})
     print("| data | covariance | recordings | poses | NEES x,y (2 if consistent; median of "
           "the recordings') | 95 % ellipse holds the truth | error within the protection "
           "radius (99 % promised) | trusted | trusted while > 3 m off (worst recording) |")
     print("|---|---|---|---|---|---|---|---|---|")
     tuning = set(range(len(walks))[WALK_TUNING])
     motions = [vicon_motion(tr) for tr in trials]
-    for own, label in ((False, "now"), (True, "before")):
+    for params, own, label in ((now, False, "now"),
+                               (odometry_drift, False, "odometry's drift rate"),
+                               (now, True, "before")):
         for half, held in (("tuning", False), ("held out", True)):
             integrity_row(f"indoor walks, {half} | {label}", [
                 walk_integrity(params, w, own) for i, w in enumerate(walks)

@@ -241,6 +241,10 @@ class PoseIntegrity(IntegrityParams):
     position_sigma: float = param(0.1, unit="m", ge=0, description="horizontal floor of "
                                   "the poses' uncertainty: the IMU is not the point tracked "
                                   "(a footprint, the wearer)")
+    drift_rate_sigma: float | None = param(0.2 * DEG, unit="rad/s", ge=0, description=(
+        "spread of the heading drift rate that lasts the mission, as the poses count it "
+        "(the odometry's own, odometry.yaw_drift_rate_sigma, is not changed by it); "
+        "null: the odometry's"))
     speed_from: float = param(2.0, unit="m/s", ge=0, description="step speed above which "
                               "the fast-gait heading drift acts (running)")
     speed_drift_sigma: float = param(0.5 * DEG, unit="rad/s per m/s", ge=0, description=(
@@ -257,7 +261,8 @@ class PoseIntegrity(IntegrityParams):
         """A fresh :class:`PoseUncertainty` with the odometry's ``errors``."""
         return PoseUncertainty(errors, self.scale_sigma, self.position_sigma, FastGaitErrors(
             speed_from=self.speed_from, speed_drift_sigma=self.speed_drift_sigma,
-            long_swing=self.long_swing, long_swing_sigma=self.long_swing_sigma))
+            long_swing=self.long_swing, long_swing_sigma=self.long_swing_sigma),
+            drift_rate_sigma=self.drift_rate_sigma)
 
 
 class Outputs(Params):

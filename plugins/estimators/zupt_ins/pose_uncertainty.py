@@ -7,8 +7,9 @@ indoor walks, ``docs/foot-ins.md``). A heading error turns every later step, so 
 position error it causes grows with the distance walked. :class:`PoseUncertainty`
 carries those errors in the INS frame, propagated step by step:
 
-* the drift rate, one constant per mission with sigma ``yaw_drift_rate_sigma`` of
-  ``steps.UnmodelledErrors`` (the odometry's, published on every message), adds
+* the drift rate, one constant per mission with sigma ``drift_rate_sigma`` (the poses'
+  own spread; by default the odometry's ``yaw_drift_rate_sigma`` of
+  ``steps.UnmodelledErrors``, published on every message, which it leaves alone), adds
   ``rate * duration`` to the heading (so the heading variance is ``(sigma t)^2``);
 * fast gaits (:class:`FastGaitErrors`) add a second lasting drift rate that acts only as
   fast as the step goes above a walking speed (impacts of 5-8 g: gyro g-sensitivity and
@@ -88,15 +89,20 @@ class PoseUncertainty:
     """Unmodelled errors accumulated into one IMU's absolute pose (see the module)."""
 
     def __init__(self, errors: UnmodelledErrors, scale_sigma: float,
-                 position_sigma: float, fast: FastGaitErrors | None = None) -> None:
+                 position_sigma: float, fast: FastGaitErrors | None = None,
+                 drift_rate_sigma: float | None = None) -> None:
         """``errors``: the odometry's (step-to-step parts and the lasting drift rate's
         spread); ``scale_sigma`` [-]: of the step-length scale; ``position_sigma`` [m]:
-        the horizontal floor; ``fast``: the fast gaits' errors (default: none)."""
+        the horizontal floor; ``fast``: the fast gaits' errors (default: none);
+        ``drift_rate_sigma`` [rad/s]: the lasting drift rate's spread the poses count
+        (default: the odometry's ``errors.yaw_drift_rate_sigma``)."""
         self.errors = errors
         self.fast = fast or FastGaitErrors()
         self.cov = np.zeros((5, 5))
         self.cov[_SCALE, _SCALE] = scale_sigma ** 2
-        rate, w_rate = _gauss_hermite(errors.yaw_drift_rate_sigma, RATE_NODES)
+        if drift_rate_sigma is None:
+            drift_rate_sigma = errors.yaw_drift_rate_sigma
+        rate, w_rate = _gauss_hermite(drift_rate_sigma, RATE_NODES)
         quick, w_quick = _gauss_hermite(self.fast.speed_drift_sigma, FAST_NODES)
         self.rate = np.repeat(rate, len(quick))          # [rad/s] per node
         self.quick = np.tile(quick, len(rate))           # [rad/s per m/s] per node
