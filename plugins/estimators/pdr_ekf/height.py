@@ -22,6 +22,11 @@ from firenav_framework.building import Building, Stair
 __all__ = ["Flight", "StairFlights", "stair_flights", "snap_levels"]
 
 
+def _of_geometry(name: str, doc: str) -> property:
+    """A read-only property of :class:`Flight` that is ``geometry.<name>``."""
+    return property(lambda flight: getattr(flight.geometry, name), doc=doc)
+
+
 @dataclass(frozen=True, eq=False)
 class Flight:
     """One flight of stairs as the estimator walks it: ``geometry`` is the flight as the
@@ -31,45 +36,14 @@ class Flight:
     index: int
     geometry: Stair
 
-    @property
-    def stair(self) -> str:
-        """Id of the building's stair the flight belongs to."""
-        return self.geometry.id
-
-    @property
-    def path(self) -> np.ndarray:
-        """Walking line (K, 2) [m] from the lower to the upper end."""
-        return self.geometry.path
-
-    @property
-    def z_lo(self) -> float:
-        """Level of the lower end [m]."""
-        return self.geometry.z_from
-
-    @property
-    def z_hi(self) -> float:
-        """Level of the upper end [m]."""
-        return self.geometry.z_to
-
-    @property
-    def steps(self) -> int:
-        """Number of stairs."""
-        return self.geometry.n_steps
-
-    @property
-    def width(self) -> float:
-        """Width of the flight [m]."""
-        return self.geometry.width
-
-    @property
-    def rise(self) -> float:
-        """Height climbed from the lower to the upper end [m]."""
-        return self.geometry.rise
-
-    @property
-    def step_rise(self) -> float:
-        """Height of one stair [m]."""
-        return self.geometry.step_height
+    stair = _of_geometry("id", "Id (str) of the building's stair the flight belongs to.")
+    path = _of_geometry("path", "Walking line (K, 2) [m] from the lower to the upper end.")
+    z_lo = _of_geometry("z_from", "Level of the lower end [m].")
+    z_hi = _of_geometry("z_to", "Level of the upper end [m].")
+    steps = _of_geometry("n_steps", "Number of stairs (int).")
+    width = _of_geometry("width", "Width of the flight [m].")
+    rise = _of_geometry("rise", "Height climbed from the lower to the upper end [m].")
+    step_rise = _of_geometry("step_height", "Height of one stair [m].")
 
     @cached_property
     def length(self) -> float:
