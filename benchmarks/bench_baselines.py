@@ -56,6 +56,7 @@ sys.path.insert(0, str(REPO))
 
 from firenav_framework.evaluation import evaluate  # noqa: E402
 from firenav_framework.evaluation.checkpoints import Checkpoints, checkpoint_errors  # noqa: E402
+from firenav_framework.evaluation.seeds import parse_seeds  # noqa: E402
 from firenav_framework.simulator import load_scenario, simulate  # noqa: E402
 
 
@@ -104,13 +105,6 @@ estimators:
 
 #: foot_imu ``axes`` (device axis that becomes FLU x, y, z) per device frame.
 AXES = {"FLU": ["x", "y", "z"], "FRD": ["x", "-y", "-z"]}
-
-
-def parse_seeds(text: str) -> list[int]:
-    if "-" in text:
-        a, b = text.split("-")
-        return list(range(int(a), int(b) + 1))
-    return [int(x) for x in text.split(",")]
 
 
 def _tag_reads(sim_result, agent: str) -> Checkpoints | None:

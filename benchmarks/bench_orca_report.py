@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from firenav_framework.evaluation.runs import _measure, assemble, plan_evaluation
+from firenav_framework.evaluation.seeds import parse_seeds
 from firenav_framework.pipeline import load_pipeline
 from firenav_framework.runner import run_pipeline
 
@@ -32,15 +33,6 @@ ROWS = {"ins": ("INS alone", ROOT / "pipelines" / "ins-baseline.yaml"),
         "firenav": ("firenav", ROOT / "pipelines" / "orca-map-matching.yaml")}
 SCENARIOS = ("orca_test1", "orca_test2", "orca_test3", "field_corridor_run")
 COUNTS = ("orca_reset", "orca_reset_via_door", "orca_reset_refused")
-
-
-def parse_seeds(text: str) -> list[int]:
-    """Seeds from ``"2000-2019"``, ``"7"`` or a comma list of those."""
-    seeds = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        seeds += range(int(lo), int(hi or lo) + 1)
-    return seeds
 
 
 def measure(path: Path, scenario: str, seeds: list[int], overrides: list[str]) -> dict:

@@ -27,8 +27,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from benchmarks.bench_rfid_ekf import parse_seeds  # noqa: E402
 from firenav_framework.evaluation.metrics import floor_right  # noqa: E402
+from firenav_framework.evaluation.seeds import parse_seeds  # noqa: E402
 from firenav_framework.testing import make_component  # noqa: E402
 from firenav_plugins.estimators.pdr_ekf import PdrEkfEstimator  # noqa: E402
 from tests.rfid.simulated import simulated_inputs  # noqa: E402

@@ -46,6 +46,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from firenav_framework.evaluation.metrics import track_errors  # noqa: E402
+from firenav_framework.evaluation.seeds import parse_seeds  # noqa: E402
 from firenav_framework.pipeline import load_pipeline_text  # noqa: E402
 from firenav_framework.simulator.scenario import SCENARIO_DIR  # noqa: E402
 from firenav_plugins.estimators.pdr_ekf.height import snap_levels  # noqa: E402
@@ -169,13 +170,6 @@ def tag_times(seen: dict) -> dict[str, list[float]]:
         for m in seen.get(stream, []):
             events[m.agent].append(m.t)
     return events
-
-
-def parse_seeds(text: str) -> list[int]:
-    if "-" in text:
-        a, b = text.split("-")
-        return list(range(int(a), int(b) + 1))
-    return [int(s) for s in text.split(",")]
 
 
 def main(argv=None) -> int:

@@ -42,8 +42,9 @@ import yaml
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from benchmarks.bench_rfid_ekf import TAG_STREAMS, parse_seeds, tag_times  # noqa: E402
+from benchmarks.bench_rfid_ekf import TAG_STREAMS, tag_times  # noqa: E402
 from firenav_framework.evaluation.metrics import integrity_figures, track_errors  # noqa: E402
+from firenav_framework.evaluation.seeds import parse_seeds  # noqa: E402
 from firenav_framework.pipeline import load_pipeline_text  # noqa: E402
 from tests.rfid.harness import run_tapped  # noqa: E402
 

@@ -50,6 +50,7 @@ sys.path.insert(0, str(REPO))
 
 from bench_ins_real_data import data_dir, run  # noqa: E402
 from firenav_framework.simulator import load_scenario, simulate  # noqa: E402
+from firenav_framework.evaluation.seeds import parse_seeds  # noqa: E402
 from firenav_framework.simulator.imu_errors import vibration_rms  # noqa: E402
 from firenav_framework.simulator.mount import imu_kinematics  # noqa: E402
 from firenav_framework.simulator.recordings import (classify_recording,  # noqa: E402
@@ -307,13 +308,6 @@ def markdown(rows: list[Row], seeds: list[int]) -> str:
         f"{r.ratio:.2f} | {('yes' if r.ok else '**no**') if r.judged else '(shown)'} |\n"
         for r in rows)
     return head + body
-
-
-def parse_seeds(text: str) -> list[int]:
-    if "-" in text:
-        a, b = text.split("-")
-        return list(range(int(a), int(b) + 1))
-    return [int(x) for x in text.split(",")]
 
 
 def main() -> int:

@@ -35,6 +35,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from firenav_framework.evaluation.seeds import parse_seeds
+
+
 ROOT = Path(__file__).resolve().parents[1]
 PIPELINE = ROOT / "pipelines" / "incident.yaml"
 
@@ -147,11 +150,6 @@ def table(rows: list[dict], names: dict[str, str]) -> str:
             f"{fmt(None if r['trusted'] is None else 100 * r['trusted'], 0, ' %')} | "
             f"{fmt(100 * r['trusted_off_worst'], 1, ' %')} |")
     return "\n".join(lines)
-
-
-def parse_seeds(text: str) -> list[int]:
-    from firenav_framework.evaluation.seeds import parse_seeds as parse
-    return parse(text)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -20,7 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["SegmentIndex", "segments_hit_bruteforce", "segments_near_sorted", "EPS"]
+__all__ = ["SegmentIndex", "segments_hit_bruteforce", "segments_hit_walk", "segments_near_sorted",
+           "EPS", "FIRST", "ANY", "ALL", "COUNT"]
 
 #: Distance [m] below which a point counts as lying on a segment's line.
 EPS = 1e-9
@@ -147,13 +148,21 @@ def _visit_cells(segs, ox, oy, h, nx, ny, pad, per_cell, items):
                     per_cell[c + 1] += 1
 
 
-#: What :func:`_hits` looks for per move.
+#: What :func:`segments_hit_walk` looks for per move.
 FIRST, ANY, ALL, COUNT = 0, 1, 2, 3
 
 
 @njit(cache=True)
-def _hits(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, mode, out_m, out_w, limit):
-    """Walk each move's cells and test the segments registered there, each once.
+def segments_hit_walk(p0, p1, segs, start, items, ox, oy, h, nx, ny, pad, mode, out_m, out_w,
+                      limit):
+    """The compiled walk behind :meth:`SegmentIndex.crosses`, ``first_hit``, ``all_hits``
+    and ``count_hits``, for compiled or hot-path callers that check their own moves.
+
+    Walks each move p0[m] -> p1[m] ((N, 2) float64 C-contiguous, finite, [m], floor ENU)
+    over its cells and tests the segments registered there, each once. The grid is the
+    index's own: ``segs, start, items, ox, oy, h, nx, ny`` = :meth:`SegmentIndex.grid_args`
+    and ``pad`` = :attr:`SegmentIndex.pad`. ``out_m`` / ``out_w`` are int64 (empty unless
+    ``mode`` is ``ALL``).
 
     ``FIRST``: per move the fraction of the first hit (ties to the lowest segment index)
     and its segment, else -1 / -1; ``ANY``: the same but stops at the move's first hit
@@ -346,8 +355,8 @@ class SegmentIndex:
             raise ValueError(f"grid cell must be a positive size in metres, got {cell}")
         # Cap the grid at about 4 million cells whatever the extent.
         cell = max(cell, math.sqrt(span[0] * span[1] / 4e6))
-        # Padding (m) that makes cell membership conservative for points on cell borders.
-        self._pad = 1e-7 * max(1.0, float(np.abs(segs).max()) if len(segs) else 1.0)
+        #: Padding [m] that makes cell membership conservative for points on cell borders.
+        self.pad = 1e-7 * max(1.0, float(np.abs(segs).max()) if len(segs) else 1.0)
         while True:
             self.cell = float(cell)
             self.origin = lo - self.cell  # one empty cell of margin on each side
@@ -367,7 +376,7 @@ class SegmentIndex:
 
     def _cell_args(self):
         return (self.segments, float(self.origin[0]), float(self.origin[1]), self.cell,
-                self.shape[0], self.shape[1], self._pad)
+                self.shape[0], self.shape[1], self.pad)
 
     def __len__(self) -> int:
         return len(self.segments)
@@ -379,7 +388,12 @@ class SegmentIndex:
         covering x in origin[0] + [i, i + 1) * cell (and likewise y)."""
         return self._start, self._items
 
-    def _grid_args(self):
+    def grid_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float, float, int,
+                                 int]:
+        """The grid as the compiled kernels take it: ``(segs, start, items, ox, oy, h, nx,
+        ny)`` = (:attr:`segments` (W, 2, 2) [m], :attr:`cells`, ``origin`` [m], ``cell``
+        [m], ``shape``), the leading arguments of :func:`segments_near_sorted` and, followed
+        by :attr:`pad`, of :func:`segments_hit_walk`."""
         return (self.segments, self._start, self._items, float(self.origin[0]),
                 float(self.origin[1]), self.cell, self.shape[0], self.shape[1])
 
@@ -413,9 +427,9 @@ class SegmentIndex:
               limit: int = -1) -> tuple[np.ndarray, np.ndarray, int]:
         a, b = _as_moves(p0, p1)
         none = np.empty(0, dtype=np.int64)
-        return _hits(a, b, *self._grid_args(), self._pad, mode,
-                     none if out_m is None else out_m, none if out_w is None else out_w,
-                     limit)
+        return segments_hit_walk(a, b, *self.grid_args(), self.pad, mode,
+                                 none if out_m is None else out_m,
+                                 none if out_w is None else out_w, limit)
 
     def nearest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance (N,) [m], closest point (N, 2), segment index (N,)); inf/NaN/-1 if empty."""
@@ -423,7 +437,7 @@ class SegmentIndex:
         if len(self.segments) == 0:
             n = len(pts)
             return np.full(n, np.inf), np.full((n, 2), np.nan), np.full(n, -1, dtype=np.int64)
-        return _nearest(pts, *self._grid_args())
+        return _nearest(pts, *self.grid_args())
 
     def near(self, point: np.ndarray, radius: float) -> np.ndarray:
         """Indices (sorted) of the segments within ``radius`` [m] of ``point`` (2,)."""
@@ -474,9 +488,7 @@ def segments_near_sorted(px, py, radius, segs, start, items, ox, oy, h, nx, ny, 
     Writes the indices of the segments within ``radius`` [m] of the point (px, py) to
     ``out[:n]``, sorted by distance (equal distances: lower index first), and their
     squared distances [m^2] to ``dist2[:n]``; returns n. The grid is the index's own:
-    ``segs`` = :attr:`SegmentIndex.segments`, ``(start, items)`` =
-    :attr:`SegmentIndex.cells`, ``(ox, oy)`` = ``origin``, ``h`` = ``cell``, ``(nx, ny)``
-    = ``shape``. ``stamp`` (W,) int64 marks the segments already seen by query ``tag``:
+    ``segs, start, items, ox, oy, h, nx, ny`` = :meth:`SegmentIndex.grid_args`. ``stamp`` (W,) int64 marks the segments already seen by query ``tag``:
     with a new tag per query the buffer never needs clearing. ``out`` and ``dist2`` hold
     W entries. Nothing is allocated.
     """

@@ -176,6 +176,35 @@ class Stair:
         """Unit vector of the climb where it arrives at the top."""
         return _unit(self.path[-1] - self.path[-2])
 
+    def flights(self) -> list[Stair]:
+        """The stair's flights, lowest first, each a :class:`Stair` of its own that climbs
+        (``z_from`` < ``z_to``, walking line from its lower end) with its share of the steps.
+
+        A walking line of three or more segments is flight - landing(s) - flight: the steps
+        are on the first and the last segment, split in proportion to their lengths (at
+        least one each), the two flights meeting the landing level; the segments between
+        are flat landings, on no flight (a U-shaped stair). A line of one or two segments,
+        or a stair of one step, is one flight (an L-shaped stair turns on winders).
+        """
+        path = np.asarray(self.path, float)
+        lo, hi = min(self.z_from, self.z_to), max(self.z_from, self.z_to)
+        floor_lo, floor_hi = sorted((self.floor_from, self.floor_to))
+        if self.z_to < self.z_from:          # walking line given from the upper end
+            path = path[::-1]
+        seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+        n = int(self.n_steps)
+
+        def flight(line: np.ndarray, z0: float, z1: float, steps: int) -> Stair:
+            return Stair(self.id, floor_lo, floor_hi, line, self.width, z0, z1, steps)
+
+        if len(seg) < 3 or n < 2:
+            return [flight(path, lo, hi, max(n, 1))]
+        first = int(np.floor(n * seg[0] / (seg[0] + seg[-1])))
+        first = min(max(first, 1), n - 1)
+        z_landing = lo + (hi - lo) * first / n
+        return [flight(path[:2], lo, z_landing, first),
+                flight(path[-2:], z_landing, hi, n - first)]
+
     def position_at(self, frac: np.ndarray | float) -> np.ndarray:
         """ENU points (..., 3) [m] at fractions of the walking line (0 bottom, 1 top)."""
         f = np.clip(np.asarray(frac, dtype=float), 0.0, 1.0)

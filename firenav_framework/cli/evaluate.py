@@ -51,7 +51,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scenario", help="scenario for the pipeline's simulator source (file or "
                    "bundled name, see `firenav simulate --list`; default: the pipeline's own)")
     p.add_argument("--seeds", default="1", metavar="N|A-B|A,B,...|NAME",
-                   help="seeds 0..N-1, a range A-B, a list, or a named set: tuning "
+                   help="seeds 0..N-1 (N up to 100: a single seed S is S-S), a range "
+                   "A-B, a list, or a named set: tuning "
                    "(100-139, for choosing defaults), report (1000-1029, for reported "
                    "figures), fresh-report (2000-2029); default 1: seed 0")
     p.add_argument("--baseline", metavar="PIPELINE", help="second pipeline run on the same "

@@ -6,9 +6,11 @@ the ``report`` seeds, which no default was chosen on, with at least 20 runs a ro
 Whoever looked at report figures and then changed a default must move to the
 ``fresh-report`` seeds and say so (docs/scale-out.md, "The held-out protocol").
 
-Seeds are given as a name (``tuning``), a count ``N`` (seeds 0..N-1, as before),
-a range ``A-B`` (inclusive) or a comma-separated list whose items are seeds,
-ranges or names (``report,5,7-9``).
+Seeds are given as a name (``tuning``), a count ``N`` (seeds 0..N-1, as before; at
+most :data:`MAX_COUNT`), a range ``A-B`` (inclusive) or a comma-separated list whose
+items are seeds, ranges or names (``report,5,7-9``). A bare count above
+:data:`MAX_COUNT` is refused: ``1000`` reads as a thousand runs from seed 0, almost
+always meant as seed 1000 (``1000-1000``) or a range.
 """
 from __future__ import annotations
 
@@ -18,6 +20,10 @@ SEED_SETS: dict[str, range] = {
     "report": range(1000, 1030),
     "fresh-report": range(2000, 2030),
 }
+
+
+#: Largest bare count ``N`` accepted; more runs are given as a range ``0-N``.
+MAX_COUNT = 100
 
 
 class SeedError(ValueError):
@@ -37,8 +43,17 @@ def _item(text: str) -> list[int]:
     return [int(text)]
 
 
+def _count(text: str) -> int:
+    n = int(text)
+    if n > MAX_COUNT:
+        raise SeedError(f"a bare count means seeds 0..{n - 1}, and counts above {MAX_COUNT} "
+                        f"are refused: give a range ({n}-{n} for seed {n} alone, "
+                        f"0-{n - 1} for {n} runs from seed 0)")
+    return n
+
+
 def parse_seeds(text: str) -> list[int]:
-    """``"5"`` -> 0..4; ``"3-7"`` -> 3..7; ``"tuning"`` -> 100..139; ``"1,4,9"`` -> those.
+    """``"5"`` -> 0..4 (counts up to :data:`MAX_COUNT`); ``"3-7"`` -> 3..7; ``"tuning"`` -> 100..139; ``"1,4,9"`` -> those.
 
     Raises :class:`SeedError` naming the expression and the accepted forms.
     """
@@ -50,7 +65,7 @@ def parse_seeds(text: str) -> list[int]:
         elif text in SEED_SETS or "-" in text.lstrip("-"):
             seeds = _item(text)
         else:
-            seeds = list(range(int(text)))
+            seeds = list(range(_count(text)))
     except SeedError as exc:
         raise SeedError(f"seeds '{text}': {exc}; {forms}") from None
     except ValueError:

@@ -6,7 +6,8 @@ right at the building's public interface, but for the few moves a constraint ask
 about on every step (four free-space rays, one reset line) those checks cost about ten
 times the walk itself.
 :class:`SegmentHits` holds one index's grid arrays and calls the same compiled walk
-(:func:`firenav_framework.building.index._hits`, so the answers are the index's own)
+(:func:`firenav_framework.building.index.segments_hit_walk` on the index's
+:meth:`~SegmentIndex.grid_args`, so the answers are the index's own)
 with the constraint's own positions, which it checks once, as scalars.
 """
 from __future__ import annotations
@@ -15,7 +16,8 @@ import math
 
 import numpy as np
 
-from firenav_framework.building.index import ANY, FIRST, SegmentIndex, _hits, segments_near_sorted
+from firenav_framework.building.index import (ANY, FIRST, SegmentIndex, segments_hit_walk,
+                                              segments_near_sorted)
 
 __all__ = ["FloorWalls", "SegmentHits"]
 
@@ -27,7 +29,8 @@ class SegmentHits:
 
     def __init__(self, index: SegmentIndex) -> None:
         self.segments = index.segments
-        self._args = (*index._grid_args(), index._pad)
+        self._grid = index.grid_args()
+        self._walk = (*self._grid, index.pad)
         n = max(len(index.segments), 1)     # scratch of the compiled neighbour query
         self._stamp = np.full(n, -1, dtype=np.int64)
         self._tag = 0
@@ -38,13 +41,13 @@ class SegmentHits:
         """(fraction (N,) of each move at its first contact, -1 for none; segment index
         (N,), -1 for none), as :meth:`SegmentIndex.first_hit` (ties to the lowest index)."""
         a, b = _moves(p0, p1)
-        frac, which, _ = _hits(a, b, *self._args, FIRST, _NONE, _NONE, -1)
+        frac, which, _ = segments_hit_walk(a, b, *self._walk, FIRST, _NONE, _NONE, -1)
         return frac, which
 
     def crosses(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
         """bool (N,): does move i touch any segment (:meth:`SegmentIndex.crosses`)?"""
         a, b = _moves(p0, p1)
-        return _hits(a, b, *self._args, ANY, _NONE, _NONE, -1)[0] >= 0.0
+        return segments_hit_walk(a, b, *self._walk, ANY, _NONE, _NONE, -1)[0] >= 0.0
 
     def near(self, point: np.ndarray, radius: float) -> np.ndarray:
         """Indices (sorted) of the segments within ``radius`` [m] of ``point`` (2,), as
@@ -54,7 +57,7 @@ class SegmentHits:
         if not (math.isfinite(x + y) and radius >= 0 and math.isfinite(radius)):
             raise ValueError(f"near({point}, {radius}): a finite point and radius >= 0 [m]")
         self._tag += 1
-        n = segments_near_sorted(x, y, float(radius), *self._args[:8], self._stamp, self._tag,
+        n = segments_near_sorted(x, y, float(radius), *self._grid, self._stamp, self._tag,
                                  self._near, self._dist2)
         return np.sort(self._near[:n])
 

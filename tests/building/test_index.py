@@ -6,7 +6,8 @@ import pytest
 import shapely
 from hypothesis import given, settings, strategies as st
 
-from firenav_framework.building.index import SegmentIndex, segments_hit_bruteforce
+from firenav_framework.building.index import (ALL, ANY, COUNT, FIRST, SegmentIndex,
+                                              segments_hit_bruteforce, segments_hit_walk)
 
 # A 10 x 10 m room with a 1 m door gap in its west wall (y 4..5) and a partition at x = 6.
 ROOM = np.array([
@@ -142,3 +143,29 @@ def test_cells_layout_is_the_documented_csr(room):
             i, j = ((p - room.origin) // room.cell).astype(int)
             c = j * nx + i
             assert w in items[start[c]:start[c + 1]]
+
+
+def test_compiled_caller_api_gives_the_brute_force_answers():
+    """segments_hit_walk on grid_args() and pad, the way a compiled caller uses them."""
+    rng = np.random.default_rng(7)
+    segs = random_walls(rng, 60)
+    p0 = rng.uniform(-2, 32, (400, 2))
+    p1 = p0 + rng.normal(0, 3.0, (400, 2))
+    index = SegmentIndex(segs, cell=1.5)
+    args = index.grid_args()
+    assert args[0] is index.segments and (args[1], args[2]) == index.cells
+    assert args[3:] == (*index.origin, index.cell, *index.shape)
+    none = np.empty(0, dtype=np.int64)
+    frac, which, _ = segments_hit_walk(p0, p1, *args, index.pad, FIRST, none, none, -1)
+    ref_hit, ref_frac, ref_which = segments_hit_bruteforce(p0, p1, segs)
+    assert ref_hit.any() and not ref_hit.all()
+    np.testing.assert_array_equal(which, ref_which)
+    np.testing.assert_array_equal(frac[ref_hit], ref_frac[ref_hit])
+    any_frac, _, _ = segments_hit_walk(p0, p1, *args, index.pad, ANY, none, none, -1)
+    np.testing.assert_array_equal(any_frac >= 0.0, ref_hit)
+    n = segments_hit_walk(p0, p1, *args, index.pad, COUNT, none, none, -1)[2]
+    out_m, out_w = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    segments_hit_walk(p0, p1, *args, index.pad, ALL, out_m, out_w, -1)
+    pairs = {(m, w) for m in range(len(p0)) for w in range(len(segs))
+             if segments_hit_bruteforce(p0[m:m + 1], p1[m:m + 1], segs[w:w + 1])[0][0]}
+    assert set(zip(out_m.tolist(), out_w.tolist())) == pairs and n == len(pairs)

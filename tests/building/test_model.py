@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from firenav_framework.building import BuildingError, GeoRef, load_building, bundled_plan
+from firenav_framework.building import BuildingError, GeoRef, Stair, load_building, bundled_plan
 from firenav_framework.building.sketch import PlanSketch
 
 
@@ -171,3 +171,23 @@ def test_door_crossings_match_a_naive_scan():
     got = f.door_crossings(path)
     assert len(expected) > 20
     assert got == expected
+
+
+def test_stair_flights_split_the_steps_of_a_u_stair_and_climb():
+    # Walking line given from the upper end (3 m) down to floor 0: 6 m flight, 2 m
+    # landing, 3 m flight seen from the bottom; 18 steps split 6 : 3 -> 12 and 6.
+    u = Stair("u", 1, 0, np.array([[2, 3], [2, 0], [0, 0], [0, 6]], float), 1.0, 3.0, 0.0, 18)
+    low, high = u.flights()
+    for f in (low, high):
+        assert (f.id, f.floor_from, f.floor_to, f.width) == ("u", 0, 1, 1.0)
+    np.testing.assert_array_equal(low.path, [[0, 6], [0, 0]])
+    np.testing.assert_array_equal(high.path, [[2, 0], [2, 3]])
+    assert (low.z_from, low.z_to, low.n_steps) == (0.0, 2.0, 12)
+    assert (high.z_from, high.z_to, high.n_steps) == (2.0, 3.0, 6)
+    assert low.step_height == pytest.approx(1 / 6) and high.step_height == pytest.approx(1 / 6)
+    assert (low.length, high.length) == (6.0, 3.0)
+    # One or two segments (an L turning on winders): one flight, the stair's own line.
+    ell = Stair("l", 0, 1, np.array([[0, 0], [3, 0], [3, 2]], float), 1.2, 0.0, 3.0)
+    (only,) = ell.flights()
+    np.testing.assert_array_equal(only.path, ell.path)
+    assert (only.z_from, only.z_to, only.n_steps, only.length) == (0.0, 3.0, 15, 5.0)

@@ -93,6 +93,18 @@ def test_evaluate_refuses_what_it_cannot_do(pipelines, tmp_path):
     assert main(["evaluate", str(tmp_path / "none.yaml")]) == 2
 
 
+def test_cli_refuses_a_bare_count_above_100_and_keeps_names_and_ranges(tmp_path, capsys):
+    """The seeds are read before anything runs: a refused count is the error, an accepted
+    one lets the next check (a pipeline that does not exist) answer."""
+    missing = str(tmp_path / "none.yaml")
+    assert main(["evaluate", missing, "--seeds", "1000"]) == 2
+    err = capsys.readouterr().err
+    assert "--seeds '1000'" in err and "1000-1000" in err and "0-999" in err
+    for ok in ("tuning", "report", "fresh-report", "100", "1000-1000", "1000,1003"):
+        assert main(["evaluate", missing, "--seeds", ok]) == 2
+        assert "pipeline" in (err := capsys.readouterr().err) and "not found" in err, ok
+
+
 def test_real_walk_is_evaluated_at_its_surveyed_strides(shared_data, repo, tmp_path):
     """Indoor walk 31: truth is one surveyed footprint per stride, in the survey frame."""
     walk = shared_data / "indoor-walks" / "walk_31.mat"

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from firenav_framework.evaluation.seeds import (SEED_SETS, SeedError, describe_seeds,
+from firenav_framework.evaluation.seeds import (MAX_COUNT, SEED_SETS, SeedError, describe_seeds,
                                                 parse_seeds, seed_set_name)
 from firenav_framework.evaluation.spread import median_interval_ranks, spread
 
@@ -27,6 +27,15 @@ def test_named_sets_ranges_and_lists():
     assert seed_set_name([0, 1]) is None
     assert describe_seeds(list(range(1000, 1030))) == "1000-1029 (report)"
     assert describe_seeds([None]) == "recorded data (one run)"
+
+
+def test_a_bare_count_above_the_bound_is_refused_with_the_range_to_give():
+    assert parse_seeds(str(MAX_COUNT)) == list(range(MAX_COUNT))
+    with pytest.raises(SeedError, match=r"seeds 0\.\.1000.*1001-1001 for seed 1001 alone"):
+        parse_seeds("1001")
+    with pytest.raises(SeedError, match="1000-1000"):
+        parse_seeds(str(1000))
+    assert parse_seeds("1000-1000") == [1000]                # one seed, as a range
 
 
 def _coverage(n: int, k: int) -> float:

@@ -5,12 +5,9 @@ Navigation Module"). A building model tells much more: where each flight is, whi
 it climbs, how many stairs it has and the level at each of its ends, so that a flight
 walked from end to end moves the height by exactly its rise (:mod:`.flight_tracker`).
 
-A stair of the building (:class:`~firenav_framework.building.Stair`) is a walking line
-from its bottom to its top with ``n_steps`` steps. A line of three or more segments is
-read as flight - landing(s) - flight: the steps are on the first and the last segment,
-split in proportion to their lengths, and the segments between are flat landings (a
-U-shaped stair; the simulator builds its stairs the same way). A line of one or two
-segments is one flight (an L-shaped stair turns on winders).
+The flights of a stair are the building model's (:meth:`~firenav_framework.building.Stair.flights`:
+a U-shaped stair is flight - landing - flight, each flight a ``Stair`` of its own with its
+rise, step height and length); this module adds what the estimator asks of them.
 """
 from __future__ import annotations
 
@@ -25,34 +22,33 @@ from firenav_framework.building import Building, Stair
 __all__ = ["Flight", "StairFlights", "stair_flights", "snap_levels"]
 
 
+def _of_geometry(name: str, doc: str) -> property:
+    """A read-only property of :class:`Flight` that is ``geometry.<name>``."""
+    return property(lambda flight: getattr(flight.geometry, name), doc=doc)
+
+
 @dataclass(frozen=True, eq=False)
 class Flight:
-    """One flight of stairs: walking line ``path`` (K, 2) [m] from its lower end to its
-    upper end, the levels ``z_lo``/``z_hi`` [m] at those ends, ``steps`` stairs, ``width``
-    [m], and the ``stair`` it belongs to (``index`` 0 = lowest flight of that stair)."""
+    """One flight of stairs as the estimator walks it: ``geometry`` is the flight as the
+    building model gives it (:meth:`Stair.flights`, climbing from its lower end), ``index``
+    its place in its stair (0 = lowest flight)."""
 
-    stair: str
     index: int
-    path: np.ndarray
-    z_lo: float
-    z_hi: float
-    steps: int
-    width: float
+    geometry: Stair
 
-    @property
-    def rise(self) -> float:
-        """Height climbed from the lower to the upper end [m]."""
-        return self.z_hi - self.z_lo
-
-    @property
-    def step_rise(self) -> float:
-        """Height of one stair [m]."""
-        return self.rise / self.steps
+    stair = _of_geometry("id", "Id (str) of the building's stair the flight belongs to.")
+    path = _of_geometry("path", "Walking line (K, 2) [m] from the lower to the upper end.")
+    z_lo = _of_geometry("z_from", "Level of the lower end [m].")
+    z_hi = _of_geometry("z_to", "Level of the upper end [m].")
+    steps = _of_geometry("n_steps", "Number of stairs (int).")
+    width = _of_geometry("width", "Width of the flight [m].")
+    rise = _of_geometry("rise", "Height climbed from the lower to the upper end [m].")
+    step_rise = _of_geometry("step_height", "Height of one stair [m].")
 
     @cached_property
     def length(self) -> float:
         """Horizontal length of the walking line [m] (asked for every stride on it)."""
-        return float(np.sum(np.linalg.norm(np.diff(self.path, axis=0), axis=1)))
+        return self.geometry.length
 
     @property
     def tread(self) -> float:
@@ -78,20 +74,8 @@ class Flight:
 
 
 def stair_flights(stair: Stair) -> list[Flight]:
-    """The flights of one stair of the building, lowest first (module docstring)."""
-    path = np.asarray(stair.path, float)
-    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
-    n = int(stair.n_steps)
-    lo, hi = min(stair.z_from, stair.z_to), max(stair.z_from, stair.z_to)
-    if stair.z_to < stair.z_from:          # walking line given from the upper end
-        path, seg = path[::-1], seg[::-1]
-    if len(seg) < 3 or n < 2:
-        return [Flight(stair.id, 0, path, lo, hi, max(n, 1), stair.width)]
-    first = int(np.floor(n * seg[0] / (seg[0] + seg[-1])))
-    first = min(max(first, 1), n - 1)
-    z_landing = lo + (hi - lo) * first / n
-    return [Flight(stair.id, 0, path[:2], lo, z_landing, first, stair.width),
-            Flight(stair.id, 1, path[-2:], z_landing, hi, n - first, stair.width)]
+    """The flights of one stair of the building, lowest first (:meth:`Stair.flights`)."""
+    return [Flight(k, f) for k, f in enumerate(stair.flights())]
 
 
 def snap_levels(building: Building) -> np.ndarray:

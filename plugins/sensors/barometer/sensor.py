@@ -13,6 +13,7 @@ from firenav_framework.codecs.selection import CodecSelection, TransportCodecs
 from firenav_framework.contract import NoBuilding
 from firenav_framework.messages import Message, PressureHeight
 
+from ..line_frames import decode_lines
 from .guard import Guard, GuardConfig
 from .height import Window, Zeroing, height_above, metres_per_pascal
 
@@ -143,21 +144,14 @@ class BarometerSensor(Sensor):
         if not isinstance(msg, RawFrame):
             self.ctx.count("ignored_messages")
             return
-        codec = self._codecs.get(msg.transport)
-        if codec is None:
-            self.ctx.count("frames_not_lines")
-            return
         try:
-            readings = codec.decode(msg)
+            readings = decode_lines(self._codecs, msg, self.ctx.count)
         except FrameError as exc:
             self.ctx.count(exc.code)
             self.ctx.report(msg.t, "baro_bad_line", f"broken barometer lines ({exc})",
                             key=msg.device or "barometer link", agent=msg.agent)
             return
-        if readings is None:
-            self.ctx.count("other_lines")
-            return
-        for r in readings:
+        for r in readings or ():
             self._reading(r, msg.agent)
 
     # ------------------------------------------------------------------ readings

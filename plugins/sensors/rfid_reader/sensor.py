@@ -10,6 +10,7 @@ from firenav_framework.codecs.rfid_lines import RfidEvent
 from firenav_framework.codecs.selection import CodecSelection, TransportCodecs
 from firenav_framework.messages import Message
 
+from ..line_frames import decode_lines
 from .passes import TagPass, read_problem
 
 __all__ = ["RfidReaderSensor"]
@@ -85,22 +86,15 @@ class RfidReaderSensor(Sensor):
         self._flush(math.inf)
 
     def _raw(self, frame: RawFrame) -> None:
-        codec = self._codecs.get(frame.transport)
-        if codec is None:
-            self.ctx.count("frames_not_lines")
-            return
         try:
-            events = codec.decode(frame)
+            events = decode_lines(self._codecs, frame, self.ctx.count)
         except FrameError as exc:
             self.ctx.count("bad_lines")
             self.ctx.warn_once(frame.t, "rfid_bad_line", f"{frame.device or 'reader link'}: "
                                f"{exc} (further broken lines are only counted)",
                                agent=frame.agent)
             return
-        if events is None:
-            self.ctx.count("other_lines")
-            return
-        for e in events:
+        for e in events or ():
             agent = self._agent_of(e.reader, frame.agent)
             if e.kind == "DEPLOY":
                 self._deploy(e.t, agent, e.reader, e.tag_id)
