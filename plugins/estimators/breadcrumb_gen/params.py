@@ -130,12 +130,10 @@ class Graph(Params):
                                      "linearisation error exceeds this many sigmas")
     max_active_dims: int = param(600, ge=30, le=20_000, description="dense active set of the incremental "
                                  "solver before refactorising")
-    rebuild_lag: int = param(10, ge=0, le=1_000, description="updates from the start of "
-                             "a refactorisation on a worker thread to its hand-over (0: on "
-                             "the pipeline thread); meanwhile the previous factorisation "
-                             "serves, stale edges re-linearised in place (poses counted as "
-                             "poses_while_refactorising); enough data time for the worker "
-                             "to be done on a live feed keeps the update from waiting")
+    rebuild_lag: int = param(0, ge=0, le=1_000, description="updates from the start of a "
+                             "refactorisation on a worker thread to its hand-over (0: on the "
+                             "pipeline thread); the poses meanwhile are the previous "
+                             "factorisation's (counted as poses_while_refactorising)")
     handover_wait: float | None = param(None, unit="s", ge=0, description="longest wait "
                                         "of an update for a refactorisation due at its "
                                         "hand-over (null: wait until done, so replays give "
