@@ -42,10 +42,13 @@ what the machine's other jobs took from it and any wait for the refactorisation 
 Refactorisations run on a worker thread and are handed over ``--rebuild-lag`` (20)
 updates after they start (0: on the update's own thread), where the checkout's GEN has
 that option. The updates are fed back to back, or with ``--pace 1`` at their data rate
-(20 firefighters, a step each per second), as a live pipeline gets them.
+(20 firefighters, a step each per second), as a live pipeline gets them. A hand-over
+waits for a late worker (deterministic; counted "waited for"), or with
+``--handover-wait S`` at most S seconds, then goes on with the old factor (counted
+"late").
 
 Run: ``.venv/bin/python benchmarks/bench_breadcrumb_graph.py [--seed 0] [--quick]
-[--heading-states] [--compare DIR ...] [--pace X] [--rebuild-lag N]``
+[--heading-states] [--compare DIR ...] [--pace X] [--rebuild-lag N] [--handover-wait S]``
 """
 from __future__ import annotations
 
@@ -206,23 +209,26 @@ def add_encounters_and_drop(gen: GeneralizedElectricalNetwork, up: Update) -> No
         gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
 
 
-def new_network(rebuild_lag: int) -> GeneralizedElectricalNetwork:
+def new_network(rebuild_lag: int, handover_wait: float | None = None
+                ) -> GeneralizedElectricalNetwork:
     """The GEN with its defaults and refactorisations handed over ``rebuild_lag`` updates
-    after they start (on a worker thread), where the checkout's GEN has that option."""
-    if "rebuild_lag" in inspect.signature(GeneralizedElectricalNetwork).parameters:
-        return GeneralizedElectricalNetwork(3, rebuild_lag=rebuild_lag)
-    return GeneralizedElectricalNetwork(3)
+    after they start (on a worker thread), waiting at most ``handover_wait`` [s] for a late
+    one (None: until done), where the checkout's GEN has these options."""
+    options = inspect.signature(GeneralizedElectricalNetwork).parameters
+    kw = {"rebuild_lag": rebuild_lag, "handover_wait": handover_wait}
+    return GeneralizedElectricalNetwork(3, **{k: v for k, v in kw.items() if k in options})
 
 
 def run_ours(updates: list[Update], linear_only: bool = False, heading_states: bool = False,
-             cpu: np.ndarray | None = None, pace: float = 0.0, rebuild_lag: int = REBUILD_LAG
+             cpu: np.ndarray | None = None, pace: float = 0.0, rebuild_lag: int = REBUILD_LAG,
+             handover_wait: float | None = None
              ) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
     """Our incremental GEN, one timed update per firefighter step (``linear_only``: the
     ranges left out, so that the batch BLUE is exact without iterations); wall seconds
     per update, and the CPU seconds into ``cpu`` when given. ``pace`` > 0 feeds the
     updates at ``pace`` times their data rate (1: live, 20 firefighters a step each per
     second) instead of back to back."""
-    gen = new_network(rebuild_lag)
+    gen = new_network(rebuild_lag, handover_wait)
     gen.add_anchor("base", np.zeros(3))
     lat = np.zeros(len(updates))
     start = time.perf_counter()
@@ -403,44 +409,50 @@ def max_diff(a: dict, b: dict) -> float:
 
 
 def time_ours(seed: int, steps: int, heading_states: bool, pace: float = 0.0,
-              rebuild_lag: int = REBUILD_LAG) -> dict:
+              rebuild_lag: int = REBUILD_LAG, handover_wait: float | None = None) -> dict:
     """Wall and CPU per update [ms] of ours on the graph of ``seed`` (for ``--compare``)."""
     updates, _ = make_graph(seed, steps=steps)
     cpu = np.zeros(len(updates))
     gen, lat = run_ours(updates, heading_states=heading_states, cpu=cpu, pace=pace,
-                        rebuild_lag=rebuild_lag)
+                        rebuild_lag=rebuild_lag, handover_wait=handover_wait)
     return {"wall": (1e3 * lat).tolist(), "cpu": (1e3 * cpu).tolist(),
             "rebuilds": gen.solver.rebuilds,
-            "background": getattr(gen, "background_rebuilds", 0)}
+            "background": getattr(gen, "background_rebuilds", 0),
+            "waited": getattr(gen, "waited_handovers", 0),
+            "late": getattr(gen, "late_handovers", 0)}
 
 
 def ours_in_checkout(path: str, seed: int, steps: int, heading_states: bool,
-                     pace: float = 0.0, rebuild_lag: int = REBUILD_LAG) -> dict:
+                     pace: float = 0.0, rebuild_lag: int = REBUILD_LAG,
+                     handover_wait: float | None = None) -> dict:
     """:func:`time_ours` run by the GEN of the checkout at ``path``, in a fresh process."""
     here = os.path.dirname(os.path.abspath(__file__))
     code = ("import json, sys; sys.path.insert(0, %r); import bench_breadcrumb_scaling as s; "
             "s.use_checkout(%r); import bench_breadcrumb_graph as g; "
-            "print(json.dumps(g.time_ours(%d, %d, %r, %r, %d)))"
-            % (here, path, seed, steps, heading_states, pace, rebuild_lag))
+            "print(json.dumps(g.time_ours(%d, %d, %r, %r, %d, %r)))"
+            % (here, path, seed, steps, heading_states, pace, rebuild_lag, handover_wait))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=path)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def compare(others: list[str], seed: int, steps: int, pace: float, rebuild_lag: int) -> None:
+def compare(others: list[str], seed: int, steps: int, pace: float, rebuild_lag: int,
+            handover_wait: float | None = None) -> None:
     """Ours in the checkouts ``others`` and here, alternating, wall and CPU per update."""
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     feed = f"paced at {pace:g}x the data rate" if pace > 0 else "back to back"
+    wait = "until done" if handover_wait is None else f"at most {1e3 * handover_wait:g} ms"
     print(f"updates {feed}; this checkout hands refactorisations over {rebuild_lag} "
-          "updates after they start")
+          f"updates after they start, waiting {wait} for a late one")
     for heading in (False, True):
         for path in (*others, here):
             name = "this" if path == here else os.path.basename(os.path.normpath(path))
-            r = ours_in_checkout(path, seed, steps, heading, pace, rebuild_lag)
+            r = ours_in_checkout(path, seed, steps, heading, pace, rebuild_lag, handover_wait)
             print(f"{name:10s} {'heading states' if heading else 'positions only':14s} "
                   f"wall: {stats(np.array(r['wall']) / 1e3)} | CPU: "
                   f"{stats(np.array(r['cpu']) / 1e3)} [{r['rebuilds']} refactorisations, "
-                  f"{r['background']} on the worker]", flush=True)
+                  f"{r['background']} on the worker, hand-overs waited for "
+                  f"{r.get('waited', 0)}, late {r.get('late', 0)}]", flush=True)
 
 
 def main() -> None:
@@ -458,10 +470,14 @@ def main() -> None:
     ap.add_argument("--rebuild-lag", type=int, default=REBUILD_LAG, help="updates from the "
                     "start of a refactorisation on the worker thread to its hand-over "
                     "(0: refactorise on the update's own thread)")
+    ap.add_argument("--handover-wait", type=float, default=None, metavar="S", help="wait "
+                    "at most this long [s] for a refactorisation due at its hand-over "
+                    "(default: until done, deterministic)")
     args = ap.parse_args()
     steps = 20 if args.quick else 95
     if args.compare:
-        compare(args.compare, args.seed, steps, args.pace, args.rebuild_lag)
+        compare(args.compare, args.seed, steps, args.pace, args.rebuild_lag,
+                args.handover_wait)
         return
     updates, truth = make_graph(args.seed, steps=steps)
     n_nodes = 1 + len(updates) + sum(u.drop is not None for u in updates)
@@ -471,7 +487,8 @@ def main() -> None:
           f"({sum(len(u.ranges) for u in updates)} ranges, "
           f"{sum(len(u.encounters) for u in updates)} encounters), 20 agents, seed {args.seed}")
 
-    (gen, lat), cpu = with_cpu(run_ours, updates, pace=args.pace, rebuild_lag=args.rebuild_lag)
+    (gen, lat), cpu = with_cpu(run_ours, updates, pace=args.pace, rebuild_lag=args.rebuild_lag,
+                               handover_wait=args.handover_wait)
     print(f"ours (incremental GEN)     {stats(lat)}   "
           f"[{gen.solver.rebuilds} refactorisations, {gen.relinearised} relinearisations; "
           f"CPU {cpu:.1f} s, wall {lat.sum():.1f} s]")
@@ -497,7 +514,8 @@ def main() -> None:
 
     if args.heading_states:
         (hs, lat_h), cpu_h = with_cpu(run_ours, updates, heading_states=True, pace=args.pace,
-                                      rebuild_lag=args.rebuild_lag)
+                                      rebuild_lag=args.rebuild_lag,
+                                      handover_wait=args.handover_wait)
         print(f"with heading states: ours {stats(lat_h)}   [{hs.solver.rebuilds} "
               f"refactorisations, {hs.relinearised} relinearisations; CPU {cpu_h:.1f} s, "
               f"wall {lat_h.sum():.1f} s]")

@@ -117,7 +117,8 @@ class BreadcrumbGenEstimator(Estimator):
                                                 max_active_dims=p.graph.max_active_dims,
                                                 hot_nodes=max(8, p.graph.max_active_dims // 12),
                                                 rebuild_lag=p.graph.rebuild_lag,
-                                                background_dims=p.graph.background_dims)
+                                                background_dims=p.graph.background_dims,
+                                                handover_wait=p.graph.handover_wait)
         self._agents: dict[str, _Agent] = {}
         self._crumbs: dict[str, str] = {}             # breadcrumb id -> current graph node
         self._kicks: dict[str, int] = {}              # breadcrumb id -> relocations so far
@@ -680,8 +681,9 @@ class BreadcrumbGenEstimator(Estimator):
         crumbs = self._crumb_ids()
         self._publish_crumbs(t, list(crumbs), crumbs)
         self.ctx.count("graph_rebuilds", self.gen.solver.rebuilds)
-        if self.gen.background_rebuilds:
-            self.ctx.count("graph_background_rebuilds", self.gen.background_rebuilds)
+        for name in ("background_rebuilds", "waited_handovers", "late_handovers"):
+            if getattr(self.gen, name):
+                self.ctx.count(f"graph_{name}", getattr(self.gen, name))
 
 
 def _nearest_state(st: _Agent, t: float) -> _State:

@@ -40,7 +40,8 @@ paper: x, y, z).
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sp
@@ -267,7 +268,7 @@ class IncrementalBlue:
         if self.is_represented(new) or new in self._hidden:
             raise ValueError(f"node {new} is already in the estimate")
         parents = list(parents)
-        self._record("border", new, parents, [np.array(g, float) for g in gains],
+        self.record("border", new, parents, [np.array(g, float) for g in gains],
                      np.array(z, float), np.array(cov, float))
         if parents:
             self.activate(parents)
@@ -296,7 +297,7 @@ class IncrementalBlue:
         ``R`` may be indefinite: a relinearisation removes the old linearisation with a
         negative "covariance". ``nodes`` must be represented; they are activated.
         """
-        self._record("update", list(nodes), np.array(J, float), np.array(R, float),
+        self.record("update", list(nodes), np.array(J, float), np.array(R, float),
                      np.array(y, float))
         self.activate(nodes)
         idx = self._dims(nodes)
@@ -313,13 +314,25 @@ class IncrementalBlue:
 
     def hide(self, node: int) -> None:
         """Forget ``node`` (DeleteNode): the others' marginal does not change (eq. 15)."""
-        self._record("hide", node)
+        self.record("hide", node)
         self._hidden.add(node)
 
-    def _record(self, op: str, *args) -> None:
-        """Log an operation for the replay on the factor of a background rebuild."""
+    def record(self, op: str, *args) -> None:
+        """Log an operation (a method name and its arguments) for the replay on the factor
+        of a pending background rebuild; nothing when none is pending."""
         if self._log is not None:
             self._log.append((op, args))
+
+    @contextmanager
+    def unlogged(self) -> Iterator[None]:
+        """Operations inside change the serving factor's estimate only: they are not
+        replayed on the factor of the pending background rebuild (the caller
+        :meth:`record` s what the replay needs instead)."""
+        log, self._log = self._log, None
+        try:
+            yield
+        finally:
+            self._log = log
 
     def _touch_nodes(self, nodes: Sequence[int]) -> None:
         self._clock += 1
@@ -410,6 +423,14 @@ class IncrementalBlue:
         self._worker = _Worker(assemble, list(hot), self.d)
         self._log = []
         self._worker.start()
+
+    def rebuild_ready(self, timeout: float = 0.0) -> bool:
+        """Whether the pending background factorisation is done, waiting for it at most
+        ``timeout`` [s] of wall time (True when none is pending)."""
+        if self._worker is None:
+            return True
+        self._worker.join(timeout)
+        return not self._worker.is_alive()
 
     def finish_rebuild(self) -> int:
         """Wait for the background factorisation, install it and replay the operations

@@ -148,18 +148,25 @@ class GeneralizedElectricalNetwork:
     system (re-linearising the stale edges) and hands it to a worker; until the hand-over
     the estimates stay those of the previous factorisation (:attr:`rebuild_pending`), and
     the hand-over happens in the ``rebuild_lag``-th :meth:`relinearize` call after it (one
-    call per update), or at once when the dense active set grows past twice its bound.
-    The hand-over point depends only on the calls, never on the worker's timing, so the
-    same inputs give identical estimates; smaller systems are refactorised at once.
+    call per update), or at once when the dense active set grows past twice its bound;
+    meanwhile stale edges are re-linearised in place. The hand-over point depends only on
+    the calls, never on the worker's timing, so the same inputs give identical estimates
+    (the hand-over waits for a late worker); smaller systems are refactorised at once.
+    ``handover_wait`` [s] bounds that wait instead: a worker not done by then is handed
+    over at a later call (:attr:`late_handovers`), which makes the estimates depend on
+    the machine's timing.
     """
 
     def __init__(self, dim: int = 3, *, eps: float = 1e-6, relinearize_sigma: float = 0.1,
                  max_active_dims: int = 900, hot_nodes: int = 150,
                  incremental: bool = True, rebuild_lag: int = 0,
-                 background_dims: int = 300) -> None:
+                 background_dims: int = 300, handover_wait: float | None = None) -> None:
         if rebuild_lag < 0 or background_dims < 0:
             raise ValueError(f"rebuild_lag ({rebuild_lag}) and background_dims "
                              f"({background_dims}) must be >= 0")
+        if handover_wait is not None and not handover_wait >= 0:
+            raise ValueError(f"handover_wait must be >= 0 s or None, got {handover_wait}")
+        self.handover_wait = handover_wait
         self.d = dim
         self.eps = eps
         self.relinearize_sigma = relinearize_sigma
@@ -167,9 +174,13 @@ class GeneralizedElectricalNetwork:
         self.rebuild_lag = rebuild_lag
         self.background_dims = background_dims
         self._handover_in = 0
+        self._behind: _Behind | None = None      # set while a background rebuild is pending
         #: background rebuilds started, and those handed over early (active set too large)
         self.background_rebuilds = 0
         self.forced_handovers = 0
+        #: hand-overs whose worker was not done when due: waited for / moved to a later call
+        self.waited_handovers = 0
+        self.late_handovers = 0
         self.solver: IncrementalBlue | BatchBlue = (
             IncrementalBlue(dim, max_active_dims=max_active_dims) if incremental
             else BatchBlue(dim, self.assemble))
@@ -529,11 +540,12 @@ class GeneralizedElectricalNetwork:
             mask[list(self._anchor)] = True
         return mask
 
-    def _edge_blocks(self, kind: int, fid: int
+    def _edge_blocks(self, kind: int, fid: int, at=None
                      ) -> tuple[list[int], list[np.ndarray], np.ndarray, np.ndarray]:
         """The edge as ``y = sum_n J_n x_n + e``, ``e ~ (0, R)``: its nodes (anchors
         included), their blocks ``J_n``, ``R`` and ``y``. Non-linear edges are taken at their
-        linearisation point (eqs. 18-19). Not for marginal edges."""
+        linearisation point (eqs. 18-19), or at ``at``: ``(x_i, x_j)`` [m] for a range,
+        ``psi`` [rad] for a rotated position. Not for marginal edges."""
         d = self.d
         if kind == _POS:
             t = self._pos
@@ -541,12 +553,14 @@ class GeneralizedElectricalNetwork:
                     t.z[fid].copy())
         if kind == _RNG:
             t = self._rng
-            h, yv = range_linearised(t.r[fid:fid + 1], t.li[fid:fid + 1], t.lj[fid:fid + 1],
-                                     t.off[fid], self.eps)
+            li, lj = (t.li[fid], t.lj[fid]) if at is None else at
+            h, yv = range_linearised(t.r[fid:fid + 1], np.reshape(li, (1, d)),
+                                     np.reshape(lj, (1, d)), t.off[fid], self.eps)
             return ([int(t.i[fid]), int(t.j[fid])], [h, -h], np.array([[t.var[fid]]]), yv)
         if kind == _ROT:
             t = self._rot
-            g, yv = rotated_position_linearised(t.z[fid:fid + 1], t.lin[fid:fid + 1])
+            psi = t.lin[fid] if at is None else at
+            g, yv = rotated_position_linearised(t.z[fid:fid + 1], np.array([psi], float))
             gh = np.zeros((d, d))
             gh[:, 0] = -g[0]
             return ([int(t.i[fid]), int(t.j[fid]), int(t.h[fid])],
@@ -555,10 +569,11 @@ class GeneralizedElectricalNetwork:
         return ([int(n) for n in e.nodes],
                 [e.J[:, k * d:(k + 1) * d] for k in range(len(e.nodes))], e.R, e.y.copy())
 
-    def _linear_form(self, kind: int, fid: int
+    def _linear_form(self, kind: int, fid: int, at=None
                      ) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
         """The edge as ``y = J x_N + e``, ``e ~ (0, R)`` over its non-anchor nodes N, with
-        anchors folded into ``y`` (eq. 12)."""
+        anchors folded into ``y`` (eq. 12); non-linear edges at ``at`` when given (see
+        :meth:`_edge_blocks`)."""
         if kind == _MRG:
             m = self._mrg[fid]
             lam, vec = np.linalg.eigh(0.5 * (m.lam + m.lam.T))
@@ -568,7 +583,7 @@ class GeneralizedElectricalNetwork:
             J = vec[:, keep].T
             return ([int(n) for n in m.nodes], J, np.diag(1.0 / lam[keep]),
                     (J @ m.eta) / lam[keep])
-        all_nodes, blocks, R, y = self._edge_blocks(kind, fid)
+        all_nodes, blocks, R, y = self._edge_blocks(kind, fid, at)
         nodes, cols = [], []
         for n, blk in zip(all_nodes, blocks):
             if n in self._anchor:
@@ -597,25 +612,7 @@ class GeneralizedElectricalNetwork:
         if not self._deferred:
             return
         items, self._deferred = self._deferred, []
-        if len(items) == 1:
-            self.solver.update(*items[0])
-            return
-        nodes = list(dict.fromkeys(n for it in items for n in it[0]))
-        where = {n: k for k, n in enumerate(nodes)}
-        d = self.d
-        rows = sum(len(it[3]) for it in items)
-        J = np.zeros((rows, len(nodes) * d))
-        R = np.zeros((rows, rows))
-        y = np.zeros(rows)
-        r0 = 0
-        for ns, Jk, Rk, yk in items:
-            r1 = r0 + len(yk)
-            for c, n in enumerate(ns):
-                J[r0:r1, where[n] * d:(where[n] + 1) * d] = Jk[:, c * d:(c + 1) * d]
-            R[r0:r1, r0:r1] = Rk
-            y[r0:r1] = yk
-            r0 = r1
-        self.solver.update(nodes, J, R, y)
+        self.solver.update(*_merged(items, self.d))
 
     # -- deletion (marginalisation) ---------------------------------------------------------------
     def delete_node(self, key: Hashable) -> None:
@@ -695,28 +692,34 @@ class GeneralizedElectricalNetwork:
             out[ids == nid] = pos
         return out
 
+    def _known_estimates(self) -> tuple[np.ndarray, np.ndarray]:
+        """(mask over node ids: active in the solver or an anchor; their estimates [m], per
+        node id, zero elsewhere), with the deferred edges applied first."""
+        self._flush()
+        nn = len(self._keys)
+        active = self.solver.active_mask(nn)
+        est = np.zeros((nn, self.d))
+        act = np.flatnonzero(active)
+        est[act] = self.solver.active_estimates(act)
+        return active | self._anchor_mask(), est
+
     def stale_edges(self, tol_sigma: float) -> int:
         """How many non-linear edges among nodes whose estimates are at hand (active in the
         solver, or anchors) are linearised so far from the current estimates that the
         linearisation error exceeds ``tol_sigma`` of their standard deviation: ranges
         (their direction turned) and rotated positions (their heading moved)."""
-        self._flush()
-        nn = len(self._keys)
-        active = self.solver.active_mask(nn)
-        known = active | self._anchor_mask()
-        est = np.zeros((nn, self.d))
-        act = np.flatnonzero(active)
-        est[act] = self.solver.active_estimates(act)
+        known, est = self._known_estimates()
         stale = 0
         cand = self._range_candidates(known)
         if len(cand):
             rng = self._rng
             xi, xj = self._positions(est, rng.i[cand]), self._positions(est, rng.j[cand])
-            stale += int(self._stale(cand, xi, xj, tol_sigma).sum())
+            stale += int(self._stale(cand, rng.li[cand], rng.lj[cand], xi, xj,
+                                     tol_sigma).sum())
         cand = self._rotated_candidates(known)
         if len(cand):
             psi = self._positions(est, self._rot.h[cand])[:, 0]
-            stale += int(self._rot_stale(cand, psi, tol_sigma).sum())
+            stale += int(self._rot_stale(cand, self._rot.lin[cand], psi, tol_sigma).sum())
         return stale
 
     def relinearize(self, tol_sigma: float | None = None) -> int:
@@ -727,20 +730,120 @@ class GeneralizedElectricalNetwork:
         The new linearisation is applied in the information form, by re-assembling
         ``L`` and ``b`` (eqs. 20, 21) and refactorising: removing an old linearisation
         from a covariance by a negative update is numerically unstable when the
-        direction changed a lot, adding information is not. While a background
-        refactorisation is pending this call only counts towards its hand-over (and
-        returns 0): edges that went stale meanwhile are found at the next call after it.
+        direction changed a lot, adding information is not.
+
+        While a background refactorisation is pending the call counts towards its
+        hand-over (which it does in the ``rebuild_lag``-th call, returning 0); in the
+        others the stale edges are re-linearised in place instead (see
+        :meth:`_relinearise_pending`), so the Gauss-Newton steps go on meanwhile.
         """
+        tol = self.relinearize_sigma if tol_sigma is None else tol_sigma
         if self.rebuild_pending:
             self._handover_in -= 1
             if self._handover_in <= 0:
-                self.finish_rebuild()
-            return 0
-        tol = self.relinearize_sigma if tol_sigma is None else tol_sigma
+                if self.solver.rebuild_ready():
+                    self.finish_rebuild()
+                    return 0
+                if (self.handover_wait is None
+                        or self.solver.rebuild_ready(self.handover_wait)):
+                    self.waited_handovers += 1
+                    self.finish_rebuild()
+                    return 0
+                self.late_handovers += 1
+            return self._relinearise_pending(tol)
         stale = self.stale_edges(tol)
         if stale:
             self.rebuild(tol)
         return stale
+
+    def _relinearise_pending(self, tol_sigma: float) -> int:
+        """Re-linearise, while a background rebuild is pending, the non-linear edges among
+        active nodes (and anchors) whose linearisation error at the current estimates
+        exceeds ``tol_sigma`` sigmas, in the serving factor or in the tables the next
+        factor is built from; returns how many.
+
+        Each one is a rank-2 update of the serving factor's active set: the old
+        linearisation removed (negative covariance) and the new one added, in one update
+        (exact), for the edges whose removal keeps its precision (:meth:`_swappable`; the
+        others wait for the next refactorisation). The serving factor may still hold the
+        linearisation from before the snapshot for edges the snapshot re-linearised
+        (:class:`_Behind`): it is updated from that point, the replay log from the
+        snapshot's, so that both end at the same system.
+        """
+        known, est = self._known_estimates()
+        behind = self._behind
+        now, replay = [], []            # (kind, fid, old point, new point)
+        rng = self._rng
+        cand = self._range_candidates(known)
+        if len(cand):
+            li, lj = rng.li[cand].copy(), rng.lj[cand].copy()
+            hit, at = _Behind.lookup(behind.rng, cand)
+            li[hit], lj[hit] = behind.li[at], behind.lj[at]
+            xi, xj = self._positions(est, rng.i[cand]), self._positions(est, rng.j[cand])
+            turned = (self._stale(cand, li, lj, xi, xj, tol_sigma)
+                      | self._stale(cand, rng.li[cand], rng.lj[cand], xi, xj, tol_sigma))
+            for k in np.flatnonzero(turned):
+                turned[k] = self._swappable(_RNG, int(cand[k]), (li[k], lj[k]))
+            for k in np.flatnonzero(turned):
+                f = int(cand[k])
+                now.append((_RNG, f, (li[k], lj[k]), (xi[k], xj[k])))
+                replay.append((_RNG, f, (rng.li[f].copy(), rng.lj[f].copy()), (xi[k], xj[k])))
+            rng.li[cand[turned]], rng.lj[cand[turned]] = xi[turned], xj[turned]
+            moved = turned[hit]                 # the serving factor now has them too
+            behind.li[at[moved]], behind.lj[at[moved]] = xi[hit][moved], xj[hit][moved]
+        rot = self._rot
+        cand = self._rotated_candidates(known)
+        if len(cand):
+            lin = rot.lin[cand].copy()
+            hit, at = _Behind.lookup(behind.rot, cand)
+            lin[hit] = behind.lin[at]
+            psi = self._positions(est, rot.h[cand])[:, 0]
+            turned = (self._rot_stale(cand, lin, psi, tol_sigma)
+                      | self._rot_stale(cand, rot.lin[cand], psi, tol_sigma))
+            for k in np.flatnonzero(turned):
+                turned[k] = self._swappable(_ROT, int(cand[k]), lin[k])
+            for k in np.flatnonzero(turned):
+                f = int(cand[k])
+                now.append((_ROT, f, lin[k], psi[k]))
+                replay.append((_ROT, f, float(rot.lin[f]), psi[k]))
+            rot.lin[cand[turned]] = psi[turned]
+            behind.lin[at[turned[hit]]] = psi[hit][turned[hit]]
+        if not now:
+            return 0
+        with self.solver.unlogged():
+            self.solver.update(*self._swap(now))
+        self.solver.record("update", *self._swap(replay))
+        self.relinearised += len(now)
+        return len(now)
+
+    def _swappable(self, kind: int, fid: int, at) -> bool:
+        """Whether the serving factor's linearisation of an edge (at ``at``) can be removed
+        by a negative update without losing precision: the rest of the graph must know
+        the measured combination at least as well as the edge itself
+        (``J Sigma J^T <= R / 2``). Where the edge carries most of that information the
+        removal would nearly cancel (the round-off turns covariances indefinite), so it
+        waits for the next refactorisation."""
+        nodes, J, R, _ = self._linear_form(kind, fid, at)
+        if not nodes:
+            return True
+        A = J @ self.solver.covariance(nodes) @ J.T
+        try:
+            np.linalg.cholesky(R - 2.0 * A)
+        except np.linalg.LinAlgError:
+            return False
+        return True
+
+    def _swap(self, changes: list[tuple]) -> tuple[list[int], np.ndarray, np.ndarray,
+                                                   np.ndarray]:
+        """One linear update that replaces each edge's linearisation ``(kind, fid, old,
+        new)`` at point ``old`` by the one at ``new``: the old rows with a negative
+        covariance, the new ones with the edge's."""
+        items = []
+        for kind, fid, old, new in changes:
+            nodes, J, R, y = self._linear_form(kind, fid, old)
+            items.append((nodes, J, -R, y))
+            items.append(self._linear_form(kind, fid, new))
+        return _merged(items, self.d)
 
     def _rotated_candidates(self, mask_nodes: np.ndarray | None) -> np.ndarray:
         rot = self._rot
@@ -750,24 +853,26 @@ class GeneralizedElectricalNetwork:
             ok &= mask_nodes[rot.h[:n]]
         return np.flatnonzero(ok)
 
-    def _rot_stale(self, fids: np.ndarray, psi: np.ndarray, tol_sigma: float) -> np.ndarray:
-        """Rotated positions whose linearisation error at heading ``psi`` exceeds
-        ``tol_sigma`` of their horizontal standard deviation."""
+    def _rot_stale(self, fids: np.ndarray, lin: np.ndarray, psi: np.ndarray,
+                   tol_sigma: float) -> np.ndarray:
+        """Rotated positions linearised at headings ``lin`` whose linearisation error at
+        heading ``psi`` [rad] exceeds ``tol_sigma`` of their horizontal standard deviation."""
         rot = self._rot
-        miss = rotated_position_miss(rot.z[fids], rot.lin[fids], psi)
+        miss = rotated_position_miss(rot.z[fids], lin, psi)
         sigma = np.sqrt(0.5 * (rot.cov[fids, 0, 0] + rot.cov[fids, 1, 1]))
         return miss > tol_sigma * sigma
 
-    def _stale(self, fids: np.ndarray, xi: np.ndarray, xj: np.ndarray,
-               tol_sigma: float) -> np.ndarray:
-        """Ranges whose linearisation error at ``(xi, xj)`` exceeds ``tol_sigma`` sigmas.
+    def _stale(self, fids: np.ndarray, li: np.ndarray, lj: np.ndarray, xi: np.ndarray,
+               xj: np.ndarray, tol_sigma: float) -> np.ndarray:
+        """Ranges linearised at ``(li, lj)`` whose linearisation error at ``(xi, xj)`` [m]
+        exceeds ``tol_sigma`` sigmas.
 
         The linearised range ``h_ij (x_i - x_j) = y`` is a plane tangent to the sphere
         ``||x_i - x_j + o|| = r`` at the old direction; where the estimates now lie at an
         angle ``theta`` from it the plane misses the sphere by ``r (1 - cos theta)``.
         """
         rng = self._rng
-        h_old, _ = range_direction(rng.li[fids], rng.lj[fids], rng.off[fids], self.eps)
+        h_old, _ = range_direction(li, lj, rng.off[fids], self.eps)
         h_new, _ = range_direction(xi, xj, rng.off[fids], self.eps)
         n_old = np.linalg.norm(h_old, axis=1)
         n_new = np.linalg.norm(h_new, axis=1)
@@ -788,9 +893,13 @@ class GeneralizedElectricalNetwork:
             self._relinearise_at(positions, 0.0 if tol_sigma is None else tol_sigma)
         return _assemble(self._tables())
 
-    def _relinearise_at(self, positions: np.ndarray, tol_sigma: float) -> None:
+    def _relinearise_at(self, positions: np.ndarray, tol_sigma: float) -> _Behind:
         """Re-linearise at ``positions`` (per node id) the ranges and rotated positions whose
-        linearisation error there exceeds ``tol_sigma`` sigmas (eqs. 18-21)."""
+        linearisation error there exceeds ``tol_sigma`` sigmas (eqs. 18-21); returns those
+        edges with their previous linearisation points."""
+        d = self.d
+        behind = _Behind(np.zeros(0, np.int64), np.zeros((0, d)), np.zeros((0, d)),
+                         np.zeros(0, np.int64), np.zeros(0))
         rng = self._rng
         sel = self._range_candidates(None)
         if len(sel):
@@ -798,19 +907,25 @@ class GeneralizedElectricalNetwork:
             xj = self._positions(positions, rng.j[sel])
             ok = np.all(np.isfinite(xi), 1) & np.all(np.isfinite(xj), 1)
             turned = np.zeros(len(sel), bool)
-            turned[ok] = self._stale(sel[ok], xi[ok], xj[ok], tol_sigma)
-            rng.li[sel[turned]] = xi[turned]
-            rng.lj[sel[turned]] = xj[turned]
-            self.relinearised += int(turned.sum())
+            turned[ok] = self._stale(sel[ok], rng.li[sel[ok]], rng.lj[sel[ok]], xi[ok],
+                                     xj[ok], tol_sigma)
+            f = sel[turned]
+            behind.rng, behind.li, behind.lj = f, rng.li[f].copy(), rng.lj[f].copy()
+            rng.li[f] = xi[turned]
+            rng.lj[f] = xj[turned]
+            self.relinearised += len(f)
         rot = self._rot
         sel = self._rotated_candidates(None)
         if len(sel):
             psi = self._positions(positions, rot.h[sel])[:, 0]
             ok = np.isfinite(psi)
             turned = np.zeros(len(sel), bool)
-            turned[ok] = self._rot_stale(sel[ok], psi[ok], tol_sigma)
-            rot.lin[sel[turned]] = psi[turned]
-            self.relinearised += int(turned.sum())
+            turned[ok] = self._rot_stale(sel[ok], rot.lin[sel[ok]], psi[ok], tol_sigma)
+            f = sel[turned]
+            behind.rot, behind.lin = f, rot.lin[f].copy()
+            rot.lin[f] = psi[turned]
+            self.relinearised += len(f)
+        return behind
 
     def _tables(self) -> _Tables:
         """What the assembly reads, as a snapshot that later changes to the network do not
@@ -852,6 +967,7 @@ class GeneralizedElectricalNetwork:
         """Hand a background refactorisation over now (waiting for it if need be)."""
         if self.rebuild_pending:
             self.solver.finish_rebuild()
+        self._behind = None
 
     def rebuild(self, tol_sigma: float | None = None) -> None:
         """Refactorise: re-linearise stale ranges at the current estimates, assemble,
@@ -861,12 +977,13 @@ class GeneralizedElectricalNetwork:
         self._flush()
         est = self.solver.full_estimate(len(self._keys))
         hot = self.solver.recent_nodes(self._hot_count())
-        self._relinearise_at(est, tol_sigma)
+        behind = self._relinearise_at(est, tol_sigma)
         tables = self._tables()
         if (self.rebuild_lag and isinstance(self.solver, IncrementalBlue)
                 and len(tables.nodes) * self.d >= self.background_dims):
             self.solver.start_rebuild(lambda: _assemble(tables, coo=True), hot)
             self._handover_in = self.rebuild_lag
+            self._behind = behind
             self.background_rebuilds += 1
             return
         system = _assemble(tables)
@@ -1028,6 +1145,50 @@ class GeneralizedElectricalNetwork:
 
     def key_of(self, nid: int) -> Hashable:
         return self._keys[nid]
+
+
+def _merged(items: list[tuple[list[int], np.ndarray, np.ndarray, np.ndarray]], d: int
+            ) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
+    """Linear edges ``y_k = J_k x_{N_k} + e_k`` as one: the union of their nodes, ``J``
+    stacked, ``R`` block-diagonal, ``y`` stacked."""
+    if len(items) == 1:
+        return items[0]
+    nodes = list(dict.fromkeys(n for it in items for n in it[0]))
+    where = {n: k for k, n in enumerate(nodes)}
+    rows = sum(len(it[3]) for it in items)
+    J = np.zeros((rows, len(nodes) * d))
+    R = np.zeros((rows, rows))
+    y = np.zeros(rows)
+    r0 = 0
+    for ns, Jk, Rk, yk in items:
+        r1 = r0 + len(yk)
+        for c, n in enumerate(ns):
+            J[r0:r1, where[n] * d:(where[n] + 1) * d] = Jk[:, c * d:(c + 1) * d]
+        R[r0:r1, r0:r1] = Rk
+        y[r0:r1] = yk
+        r0 = r1
+    return nodes, J, R, y
+
+
+@dataclass
+class _Behind:
+    """The linearisation points the serving factor still holds for the edges a pending
+    background rebuild's snapshot re-linearised (sorted edge ids; ranges: the two nodes'
+    positions [m], rotated positions: the heading [rad])."""
+
+    rng: np.ndarray
+    li: np.ndarray
+    lj: np.ndarray
+    rot: np.ndarray
+    lin: np.ndarray
+
+    @staticmethod
+    def lookup(fids: np.ndarray, sel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(mask over ``sel``: in ``fids``; their positions in ``fids``)."""
+        k = np.searchsorted(fids, sel)
+        kc = np.minimum(k, max(len(fids) - 1, 0))
+        hit = (k < len(fids)) & (fids[kc] == sel) if len(fids) else np.zeros(len(sel), bool)
+        return hit, kc[hit]
 
 
 @dataclass

@@ -134,6 +134,13 @@ class Graph(Params):
                              "refactorisation on a worker thread to its hand-over (0: on the "
                              "pipeline thread); the poses meanwhile are the previous "
                              "factorisation's (counted as poses_while_refactorising)")
+    handover_wait: float | None = param(None, unit="s", ge=0, description="longest wait "
+                                        "of an update for a refactorisation due at its "
+                                        "hand-over (null: wait until done, so replays give "
+                                        "identical tracks; a number bounds the update's "
+                                        "latency, and a late factor is handed over at a "
+                                        "later update, counted as graph_late_handovers, "
+                                        "which makes tracks depend on the machine's timing)")
     background_dims: int = param(3000, ge=0, le=1_000_000, description="systems of at least this "
                                  "many dimensions are refactorised on the worker thread; "
                                  "smaller ones at once")
