@@ -19,7 +19,8 @@ read the angle at which the step meets the wall it touches first (:mod:`.rules`)
   the INS velocity) and no update is stored;
 * an implausible lag of the corrected agent behind the INS position: the agent is in
   the wrong compartment and is reset to the INS position, never through a wall: by way
-  of the doors between them (one door per step), or, with no way, refused. The paper's test is a speed
+  of the doors between them (one door per step), or, with no way, refused (the hold is
+  then marked a jump: map and odometry disagree, ``orca_held_in_doubt``). The paper's test is a speed
   above ``max_speed`` (2.5 m/s, "unnatural for humans") from the agent to the INS
   position (``reset_from: fixed``); a firefighter running at 3 m/s trips it on every
   step. ``reset_from: ins_speed`` (the default) asks instead whether that speed exceeds
