@@ -40,7 +40,8 @@ class OdometryStep:
     the step leads under the current update matrix ``transform`` (INS frame ->
     building frame); ``ins_position`` (3,) the integrated INS position in its own frame;
     ``dt`` [s] the time since the previous step; ``heading`` the proposed building-frame
-    heading [rad]; ``odometry`` the INS message itself.
+    heading [rad]; ``odometry`` the INS message itself; ``cov`` (2, 2) [m^2], when the
+    estimator keeps one, the covariance of the horizontal error of ``prev`` (ENU).
     """
 
     agent: str
@@ -52,6 +53,7 @@ class OdometryStep:
     transform: Rigid2D
     ins_position: np.ndarray
     odometry: Odometry
+    cov: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -41,11 +41,13 @@ class Walker:
         self.dr, self.rec, self.stats = chain or make_component(DeadReckoningEstimator, params,
                                                                 building=b)
         self.constraints = []
+        self.constraint_records = []      # what each constraint published (diagnostics)
         if chain is None:
             attach = ([] if orca is None else [(OrcaConstraint, orca)]) + list(extra)
             for cls, cparams in attach:
-                c, _, c_stats = make_component(cls, cparams, building=b)
+                c, c_rec, c_stats = make_component(cls, cparams, building=b)
                 c.start()
+                self.constraint_records.append(c_rec)
                 self.dr.constraints.append(c)
                 self.constraints.append((c, c_stats))
             self.dr.start()

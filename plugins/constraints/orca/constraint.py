@@ -19,7 +19,8 @@ read the angle at which the step meets the wall it touches first (:mod:`.rules`)
   the INS velocity) and no update is stored;
 * an implausible lag of the corrected agent behind the INS position: the agent is in
   the wrong compartment and is reset to the INS position, never through a wall: by way
-  of the doors between them (one door per step), or, with no way, refused. The paper's test is a speed
+  of the doors between them (one door per step), or, with no way, refused (the hold is
+  then marked a jump: map and odometry disagree, ``orca_held_in_doubt``). The paper's test is a speed
   above ``max_speed`` (2.5 m/s, "unnatural for humans") from the agent to the INS
   position (``reset_from: fixed``); a firefighter running at 3 m/s trips it on every
   step. ``reset_from: ins_speed`` (the default) asks instead whether that speed exceeds
@@ -61,7 +62,10 @@ Every step that no jump moved reports what the walls around the corrected positi
 of it (``free_space_covariance``): along and across the heading the walker is somewhere
 between the first walls either side (a corridor's width, a room's extent);
 ``dead_reckoning`` fuses that into its covariance as evidence that repeats from step to
-step (never tighter than the extent says).
+step (never tighter than the extent says), on an axis only where the estimator's own
+covariance puts the walker between those walls with at least ``free_space_confidence``:
+after a jump or a contradiction widened it, the walls of a room the track may wrongly be
+in do not shrink it back.
 
 ``rotation_from: heading`` stores the rotation of the INS velocity along its heading
 rather than of the step (which sways from stride to stride).
@@ -110,6 +114,8 @@ class _Agent:
     dt: float = 1.0                         # ... its duration [s]
     t: float | None = None                  # ... and time [s]
     turns: TurnHistory = field(default_factory=TurnHistory)
+    refused: bool = False                   # this step's reset was refused
+    held_since: float | None = None         # start [s] of the hold since a refused reset
 
 
 @dataclass(frozen=True)
@@ -200,6 +206,11 @@ class OrcaConstraint(AnchorRangeInput):
         free_space_reach: float = param(10.0, unit="m", gt=0, description="an axis with no "
                                         "wall within this on either side says nothing of "
                                         "the position")
+        free_space_confidence: float = param(0.5, ge=0, le=1, description="the walls either "
+                                             "side hold the position on an axis only if the "
+                                             "estimator's covariance puts the walker between "
+                                             "them with at least this probability (else it "
+                                             "may be in another compartment)")
         avoid_team: bool = param(False, description="team members are ORCA agents that avoid "
                                  "each other (reciprocal lines, §2.2)")
         team_time_horizon: float = param(2.0, unit="s", gt=0, description="time horizon for "
@@ -260,14 +271,38 @@ class OrcaConstraint(AnchorRangeInput):
     # -- the odometry_correction protocol ----------------------------------------------
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         me = self.agents[step.agent]
+        me.refused = False
         fix = self._rules(me, step)
         if fix is not None and not fix.event.startswith("orca_reset") and \
                 self._left_behind(step, fix):
             # where the rule would leave the agent it lags the INS implausibly (a long
             # step while running, cutting a corner or a door): the reset rule's answer,
             # one step sooner (kept if the reset is refused)
-            fix = self._reset(step) or fix
+            fix = self._reset(step, me) or fix
+        if me.refused:
+            fix = self._held_in_doubt(me, step, fix)
+        elif me.held_since is not None:
+            me.held_since = None
         return self._record(me, step, self._with_free_space(step, fix))
+
+    def _held_in_doubt(self, me: _Agent, step: OdometryStep, fix: StepCorrection | None
+                       ) -> StepCorrection:
+        """A refused reset: the walls hold the agent while the INS says it is in another
+        compartment. The map and the odometry contradict each other and nothing here says
+        which is right, so the step is marked a jump: ``dead_reckoning`` widens its
+        covariance by the step it did not take and fuses no evidence of the walls (whose
+        compartment is in doubt). The first step of such a hold is reported with its place."""
+        if me.held_since is None:
+            me.held_since = step.t
+            lag = math.hypot(step.proposed[0] - step.prev[0], step.proposed[1] - step.prev[1])
+            self.ctx.diagnose(step.t, "warning", "orca_held_in_doubt",
+                              f"{step.agent} held by the walls at ({step.prev[0]:.1f}, "
+                              f"{step.prev[1]:.1f}) m while the INS puts it {lag:.1f} m away "
+                              "with no way through doors: map and odometry disagree, the "
+                              "pose is widened and not trusted", agent=step.agent)
+        if fix is None:
+            return StepCorrection(position=step.proposed.copy(), jump=True, event="orca_held")
+        return replace(fix, jump=True)
 
     def _rules(self, me: _Agent, step: OdometryStep) -> StepCorrection | None:
         """The paper's rules and the guards for one step (module docstring)."""
@@ -277,7 +312,7 @@ class OrcaConstraint(AnchorRangeInput):
         here = self._tables(self._building.floor_of_z(step.prev[2]))
         if self._implausible_lag(step):
             # Wrong compartment: the agent lags implausibly far behind the INS (§2.2).
-            fix = self._reset(step)
+            fix = self._reset(step, me)
             if fix is not None:
                 return fix
         grid = here.grid
@@ -332,7 +367,7 @@ class OrcaConstraint(AnchorRangeInput):
         return correction(step, moved, update=Rigid2D.rotation_about(stored, pos),
                           event="orca_rotation")
 
-    def _reset(self, step: OdometryStep) -> StepCorrection | None:
+    def _reset(self, step: OdometryStep, me: _Agent) -> StepCorrection | None:
         """The wrong-compartment reset to the INS position, never through a wall; None
         when it is refused.
 
@@ -342,7 +377,8 @@ class OrcaConstraint(AnchorRangeInput):
         (``orca_reset_via_door``): the next step carries on from the doorway, and the
         reset rule takes it on if it still lags. With no such way within
         ``reset_max_detour`` of the straight distance the reset is refused
-        (``orca_reset_refused``, counted) and the walls hold the agent as on any step.
+        (``orca_reset_refused``, counted) and the walls hold the agent as on any step,
+        the step marked as a jump (:meth:`_held_in_doubt`).
         """
         here = self._tables(self._building.floor_of_z(step.prev[2]))
         pos, target = step.prev[:2], step.proposed[:2]
@@ -351,6 +387,7 @@ class OrcaConstraint(AnchorRangeInput):
         via = here.door_graph.way_towards(pos, target, self.params.reset_max_detour)
         if via is None:
             self.ctx.count("orca_reset_refused")
+            me.refused = True
             return None
         return correction(step, via, jump=True, event="orca_reset_via_door")
 
@@ -363,7 +400,8 @@ class OrcaConstraint(AnchorRangeInput):
             return fix
         position = step.proposed if fix is None else fix.position
         here = self._tables(self._building.floor_of_z(step.prev[2]))
-        cov = free_space_covariance(here.walls, position[:2], step.heading, p.free_space_reach)
+        cov = free_space_covariance(here.walls, position[:2], step.heading, p.free_space_reach,
+                                    step.cov, p.free_space_confidence)
         if cov is None:
             return fix
         if fix is None:

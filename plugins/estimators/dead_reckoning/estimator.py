@@ -241,7 +241,8 @@ class DeadReckoningEstimator(Estimator):
         for c in self.constraints:
             step = OdometryStep(agent=msg.agent, t=msg.t, dt=dt, prev=prev, proposed=position,
                                 heading=heading, transform=st.transform,
-                                ins_position=st.ins.copy(), odometry=msg)
+                                ins_position=st.ins.copy(), odometry=msg,
+                                cov=st.cov[:2, :2].copy())
             fix = c.correct(step)
             if fix is None:
                 continue
