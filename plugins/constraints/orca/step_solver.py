@@ -149,13 +149,9 @@ class WallGrid:
     """The walls of one floor with their grid (from the building model) and scratch buffers."""
 
     def __init__(self, floor, max_agents: int = 64):
-        index = floor.wall_index
-        start, items = index.cells   # the grid's cell lists (CSR)
-        self.segs = np.ascontiguousarray(index.segments, dtype=np.float64)
-        self.start = start
-        self.items = items
-        self.grid = (float(index.origin[0]), float(index.origin[1]), float(index.cell),
-                     int(index.shape[0]), int(index.shape[1]))
+        segs, self.start, self.items, ox, oy, h, nx, ny = floor.wall_index.grid_args()
+        self.segs = np.ascontiguousarray(segs, dtype=np.float64)
+        self.grid = (ox, oy, h, int(nx), int(ny))
         n = len(self.segs)
         self.stamp = np.full(max(n, 1), -1, dtype=np.int64)
         self.tag = 0
