@@ -151,7 +151,7 @@ def test_vibration_rectification_grows_with_the_square_root_of_the_vibration():
     force[:, 2] = G0                      # at rest: no bias at all
     y0, _, err = corrupt(np.zeros((n, 3)), spec, fs, np.random.default_rng(4),
                          specific_force=force)
-    assert np.abs(y0).max() < 1e-12
+    assert np.abs(y0).max() < 1e-9        # rad/s: only the rounding of a steady 1 g (numpy 2.4: 8e-11)
     for amp_g in (0.5, 2.0):              # 40 Hz vibration of rms amp_g / sqrt(2) [g]
         shaken = force.copy()
         shaken[:, 0] = amp_g * G0 * np.sin(2 * np.pi * 40.0 * t)
