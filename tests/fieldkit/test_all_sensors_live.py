@@ -31,6 +31,7 @@ delay (up to about 0.15 s measured) stays in all their times. So:
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -50,6 +51,9 @@ CONTENT = {
     "radio.range": ("agent", "device", "a", "b", "range_m", "sigma_m", "method"),
     "uwb.range": ("agent", "a", "b", "range_m"),
 }
+#: streams that fuse devices on different links: their replay may interleave the inputs
+#: otherwise after a frame the live run delivered late
+CROSS_LINK = {"team.pose", "mm.pose", "ekf.pose", "gen.pose"}
 MAX_DELAY, MEDIAN_DELAY, CLOCK_TOL = 5.0, 0.1, 1.0  # s (docstring)
 BARO_TOL, POS_TOL = 0.5, 5e-3  # m
 UWB_TOL = 0.03                 # share of the UWB ranges the gate may take otherwise
@@ -160,11 +164,20 @@ def test_every_sensor_played_live_gives_the_offline_messages_and_poses(tmp_path)
     assert len(uwb_off & set(uwb_live)) >= (1 - UWB_TOL) * len(uwb_off)
     assert len(uwb_live) <= (1 + UWB_TOL) * len(uwb_off)
 
-    # the replay of the live run's logs: every stream exactly the live run's
+    # the replay of the live run's logs: every stream exactly the live run's. The streams
+    # that fuse devices on different links (CROSS_LINK) depend on how their inputs
+    # interleave: when the live timeline delivered a frame late (a stall longer than the
+    # 50 ms reorder window, `late: deliver`) the replay, which merges the recordings in
+    # time order, may interleave them otherwise; only then may those streams differ
+    late = live.count("timeline", "late_delivered")
     replayed = replay_run(tmp_path / "live", tmp_path / "replay")
-    for s, msgs in lm.items():
-        assert [(m.t, m.agent) + content_of(m) for m in replayed[s]] == \
-            [(m.t, m.agent) + content_of(m) for m in msgs], s
+    differ = [s for s, msgs in lm.items()
+              if [(m.t, m.agent) + content_of(m) for m in replayed[s]]
+              != [(m.t, m.agent) + content_of(m) for m in msgs]]
+    assert set(differ) <= (CROSS_LINK if late else set()), (differ, late)
+    if differ:
+        warnings.warn(f"{late} frame(s) delivered late in the live run; the replay's {differ} "
+                      f"differ from the live run's")
 
     # barometers: every wearer zeroed and followed, heights as offline
     baro_live, baro_off = by_agent(lm["baro.height"]), by_agent(om["baro.height"])
