@@ -33,7 +33,7 @@ from firenav_framework.transports.mavlink_link import mavutil
 from firenav_framework.transports.player import DevicePlayer, Roster
 from firenav_framework.transports.radio_frames import RadioEncoder, plan_anchors
 
-from .conftest import free_port, wait_for
+from .conftest import free_port, stop_live, wait_for, wait_for_frames
 
 REPO = Path(__file__).resolve().parents[2]
 SCENARIO = Path(__file__).with_name("data") / "incident_short.yaml"
@@ -143,19 +143,10 @@ def live_run(out: Path, inject: Inject | None = None) -> Run:
         if inject is not None:
             messages = _injecting(player, messages, inject)
         player.play(messages, roster)
-        frames = lambda cid: runner.stats.counts.get(cid, {}).get("frames", 0)  # noqa: E731
-        wait_for(lambda: frames("can") >= player.sent["can"]
-                 and frames("mav") >= player.sent["mavlink"]
-                 and frames("lines") >= player.sent["lines"], timeout=120,
-                 what=f"all {player.sent} frames at the sources")
+        wait_for_frames(runner, player.sent, {"can": "can", "mav": "mavlink", "lines": "lines"},
+                        timeout=120)
     finally:
-        runner.stop()
-        thread.join(120)
-        if bus is not None:
-            bus.shutdown()
-        if conn is not None:
-            conn.close()
-        pty.close()
+        stop_live(runner, thread, [bus and bus.shutdown, conn and conn.close, pty.close], 120)
     assert not thread.is_alive(), "the live run did not stop"
     return Run(box["result"], dict(tap.messages), dict(player.sent))
 

@@ -30,6 +30,26 @@ def wait_for(cond: Callable[[], bool], timeout: float = WAIT_S, what: str = "con
         time.sleep(0.02)
 
 
+def wait_for_frames(runner, sent: dict[str, int], links: dict[str, str],
+                    timeout: float) -> None:
+    """Until each live source (id -> the player's link name) has counted as many frames as
+    the player sent on its link."""
+    count = lambda cid: runner.stats.counts.get(cid, {}).get("frames", 0)  # noqa: E731
+    wait_for(lambda: all(count(cid) >= sent[link] for cid, link in links.items()),
+             timeout=timeout, what=f"all {sent} frames at the sources")
+
+
+def stop_live(runner, thread, closers: list[Callable[[], object] | None],
+              timeout: float) -> None:
+    """Stop a live run started on ``thread`` and close the test's ends of its links
+    (``None`` for one never opened)."""
+    runner.stop()
+    thread.join(timeout)
+    for close in closers:
+        if close is not None:
+            close()
+
+
 class RunningSource:
     """A live source's messages() running in a thread, collected in order."""
 

@@ -39,7 +39,7 @@ from firenav_framework.tracks import Track
 from firenav_framework.transports.mavlink_link import mavutil
 from firenav_framework.transports.player import DevicePlayer, Roster
 
-from .conftest import free_port, wait_for
+from .conftest import free_port, stop_live, wait_for, wait_for_frames
 
 REPO = Path(__file__).resolve().parents[2]
 SCENARIO = Path(__file__).with_name("data") / "field_team.yaml"
@@ -159,17 +159,9 @@ def run_live(out: Path, *, speed: float = 2.0, tamper: Tamper = send_as_is,
             player.pace(block.t)
             encoded = player.encode(block)
             tamper(player, block, *encoded)
-        frames = lambda cid: runner.stats.counts.get(cid, {}).get("frames", 0)  # noqa: E731
-        wait_for(lambda: frames("can") >= player.sent["can"]
-                 and frames("mav") >= player.sent["mavlink"], timeout=60,
-                 what=f"all {player.sent} frames at the sources")
+        wait_for_frames(runner, player.sent, {"can": "can", "mav": "mavlink"}, timeout=60)
     finally:
-        runner.stop()
-        thread.join(60)
-        if bus is not None:
-            bus.shutdown()
-        if conn is not None:
-            conn.close()
+        stop_live(runner, thread, [bus and bus.shutdown, conn and conn.close], 60)
         msgs = gcs.close()
     assert not thread.is_alive(), "the live run did not stop"
     return LiveRun(box["result"], out, dict(player.sent), msgs)
