@@ -21,8 +21,11 @@ bias) and drops impossible ones, and it passes ``check_plugin``.
 The contract (``firenav_framework/contract/sensor.py`` says it all):
 
 * Input: raw device data (``RawFrame`` from a live link or its log) or device messages
-  from a recording or the simulator. Decode wire formats with a registered codec
-  (``firenav_framework.codecs.get_codec``), never with a private parser.
+  from a recording or the simulator. Decode wire formats with a registered codec, never
+  with a private parser: declare a ``CodecSelection`` parameter group and decode with
+  ``TransportCodecs(params.frames, count=ctx.count).decode(frame)``
+  (``firenav_framework.codecs.selection``; it counts frames of other transports and
+  other devices' records, and raises the codec's ``FrameError`` for a broken one).
 * Output: typed measurements in SI units and the conventions of
   ``firenav_framework.messages`` (ENU, FLU, radians, seconds).
 * Bad input (a frame that does not decode, a NaN, a sample out of time order) is

@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 from pydantic import ValidationError, ValidationInfo, field_validator
 
 from ..contract.params import Params, param
+from ..messages import RawFrame
 from . import UnknownCodec, get_codec
 from .base import Codec
 
@@ -114,6 +115,21 @@ class TransportCodecs:
             name = self.selection.codecs.get(transport)
             codec = self._by_transport[transport] = None if name is None else self._make(name)
         return codec
+
+    def decode(self, frame: RawFrame, *, no_codec: str = "frames_not_lines",
+               other: str = "other_lines") -> list | None:
+        """The records of ``frame`` as its transport's codec decodes them, or None, counted:
+        ``no_codec`` when this sensor decodes no frames of that transport, ``other`` when
+        the frame holds none of the codec's records. A broken frame raises the codec's
+        :class:`~firenav_framework.codecs.FrameError`."""
+        codec = self.get(frame.transport)
+        if codec is None:
+            self._count(no_codec, 1)
+            return None
+        records = codec.decode(frame)
+        if records is None:
+            self._count(other, 1)
+        return records
 
     @property
     def codecs(self) -> list[Codec]:

@@ -13,7 +13,6 @@ from firenav_framework.codecs.selection import CodecSelection, TransportCodecs
 from firenav_framework.contract import NoBuilding
 from firenav_framework.messages import Message, PressureHeight
 
-from ..line_frames import decode_lines
 from .guard import Guard, GuardConfig
 from .height import Window, Zeroing, height_above, metres_per_pascal
 
@@ -145,7 +144,7 @@ class BarometerSensor(Sensor):
             self.ctx.count("ignored_messages")
             return
         try:
-            readings = decode_lines(self._codecs, msg, self.ctx.count)
+            readings = self._codecs.decode(msg)
         except FrameError as exc:
             self.ctx.count(exc.code)
             self.ctx.report(msg.t, "baro_bad_line", f"broken barometer lines ({exc})",

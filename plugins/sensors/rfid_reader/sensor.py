@@ -10,7 +10,6 @@ from firenav_framework.codecs.rfid_lines import RfidEvent
 from firenav_framework.codecs.selection import CodecSelection, TransportCodecs
 from firenav_framework.messages import Message
 
-from ..line_frames import decode_lines
 from .passes import TagPass, read_problem
 
 __all__ = ["RfidReaderSensor"]
@@ -87,7 +86,7 @@ class RfidReaderSensor(Sensor):
 
     def _raw(self, frame: RawFrame) -> None:
         try:
-            events = decode_lines(self._codecs, frame, self.ctx.count)
+            events = self._codecs.decode(frame)
         except FrameError as exc:
             self.ctx.count("bad_lines")
             self.ctx.warn_once(frame.t, "rfid_bad_line", f"{frame.device or 'reader link'}: "

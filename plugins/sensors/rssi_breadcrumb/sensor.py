@@ -96,21 +96,13 @@ class RssiBreadcrumbSensor(Sensor):
     def _decode(self, frame: RawFrame) -> list[RadioEvent]:
         """The radio events of a frame; broken lines are counted and reported once,
         other devices' lines counted (``other_lines``)."""
-        codec = self._codecs.get(frame.transport)
-        if codec is None:
-            self.ctx.count("frames_not_lines")
-            return []
         try:
-            events = codec.decode(frame)
+            return self._codecs.decode(frame) or []
         except FrameError as exc:
             self.ctx.count(exc.code)
             self.ctx.warn_once(frame.t, "radio_bad_line", f"{frame.device or 'radio link'}: "
                                f"{exc} (further broken lines are only counted)")
             return []
-        if events is None:
-            self.ctx.count("other_lines")
-            return []
-        return events
 
     def _reading(self, msg: RssiReading) -> None:
         p = self.params

@@ -52,18 +52,14 @@ class UwbSensor(Sensor):
 
     # -- decoding ------------------------------------------------------------------
     def _raw(self, frame: RawFrame) -> None:
-        codec = self._codecs.get(frame.transport)
         try:
-            reports = None if codec is None else codec.decode(frame)
+            reports = self._codecs.decode(frame, no_codec="other_frames", other="other_frames")
         except FrameError as exc:
             self.ctx.count(exc.code)
             self.ctx.report(frame.t, f"uwb_{exc.code}", f"UWB reports that could not be "
                             f"decoded skipped; latest: {exc}", key=frame.device or "uwb link")
             return
-        if reports is None:
-            self.ctx.count("other_frames")
-            return
-        for rep in reports:
+        for rep in reports or ():
             self._report(frame, rep)
 
     def _report(self, frame: RawFrame, rep: TwrReport) -> None:
