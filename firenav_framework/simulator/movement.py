@@ -416,16 +416,23 @@ def stair_geometry(st) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, 
     """Treads and landings of a stair, along its walking line from the bottom.
 
     Returns (tread centre s (n,), tread surface z (n,), landing footfall s, landing z,
-    path length). With three or more path segments the first and last are flights and
-    the ones between flat landings; otherwise the steps spread over the whole path.
+    path length). The steps are split between flights as :meth:`Stair.flights
+    <firenav_framework.building.model.Stair.flights>` splits them (three or more path
+    segments: the first and last are flights, the ones between flat landings); otherwise
+    the steps spread over the whole path in proportion to its segments' lengths.
     """
     path = np.asarray(st.path, float)
     seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
     s_nodes = np.concatenate([[0.0], np.cumsum(seg)])
-    flights = [0, len(seg) - 1] if len(seg) >= 3 else list(range(len(seg)))
     n = int(st.n_steps)
-    per = np.floor(n * seg[flights] / seg[flights].sum()).astype(int)
-    per[-1] = n - per[:-1].sum()
+    flights = [0, len(seg) - 1] if len(seg) >= 3 else list(range(len(seg)))
+    if len(seg) >= 3 and n >= 2:
+        per = np.array([f.n_steps for f in st.flights()], int)   # lowest first
+        if st.z_to < st.z_from:                                   # line from the top
+            per = per[::-1]
+    else:
+        per = np.floor(n * seg[flights] / seg[flights].sum()).astype(int)
+        per[-1] = n - per[:-1].sum()
     rise = st.rise / n
     s_tread: list[float] = []
     for f, k in zip(flights, per):
