@@ -21,7 +21,10 @@ it), counted, said with the place (``radio_contradiction``), and widens the fire
 published covariance until consistent links return. A range shorter than ``radio.near_range`` - or between nodes whose
 estimated distance is below their relative uncertainty, where its direction is
 meaningless - enters as a zero relative position with the range's spread ("the nodes
-are within r of each other").
+are within r of each other"), at least ``radio.near_sigma`` per axis (fast fading lets a
+few short readings through from metres away, as it does for encounters). A range to a
+fixed node from within ``radio.shadow_length`` walked of the last one used is not used:
+its shadowing is the same (a firefighter waiting by a node gives one range).
 
 Beyond the paper (``heading.enabled``; false gives the paper's GEN): a foot INS errs
 mostly by a drifting heading (residual gyro bias, warm-up drift, gyro scale factor on
