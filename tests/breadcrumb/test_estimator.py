@@ -53,7 +53,9 @@ def walk(laps: int = 3, drift_deg_per_lap: float = 10.0, seed: int = 0, kick: bo
     return msgs, truth[1:], t[1:]
 
 
-PARAMS = {"base": {"position": BASE.tolist()}, "odometry": {"noise_per_m": 0.05}}
+# the walk's encounters happen within 0.6 m (no fading lets one through from further)
+PARAMS = {"base": {"position": BASE.tolist()}, "odometry": {"noise_per_m": 0.05},
+          "radio": {"near_sigma": 0.6}}
 PAPER = {**PARAMS, "heading": {"enabled": False},                 # position-only GEN
          "odometry": {"noise_per_m": 0.3}}
 

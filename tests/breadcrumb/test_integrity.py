@@ -141,3 +141,43 @@ def test_repeated_links_between_two_firefighters_are_not_independent_evidence():
     assert counts["mutual_links_shared"] >= 25
     assert nis == 1.0                         # untouched by mutual links
     assert nis_ind == 1.0
+
+
+
+def waiting_near_the_base(params: dict, wait_s: int = 300):
+    """Issue 15 (field fire floor, tuning seed 108): a firefighter walks 3.6 m east of the
+    base station and waits there; the odometry is right. Of the many range readings from
+    that far, fast fading lets the short ones through: one of 1.3 m every second, every
+    one saying "next to the base". Returns (the last pose, its horizontal error [m])."""
+    from firenav_framework import Odometry
+    msgs, pos = [], np.zeros(3)
+    for k in range(1, wait_s + 1):
+        t = 10.0 + k
+        dm = np.array([0.9 if k <= 4 else 0.0, 0.0, 0.0])
+        pos = pos + dm
+        msgs.append(("odo", Odometry(t=t, agent="ff1", device="ff1/ins", t_start=t - 1.0,
+                                     delta=dm, dheading=0.0, cov=np.diag([4e-4] * 3 + [1e-4]),
+                                     position=pos.copy(), heading=0.0)))
+        if k > 4:
+            msgs.append(("range", Range(t=t, a="ff1", b="base", range_m=1.3, sigma_m=0.6,
+                                        method="rssi")))
+    last = run_component(BreadcrumbGenEstimator, params, msgs).on("pose")[-1]
+    return last, np.array([3.6, 0.0]) - last.position[:2]
+
+
+def test_short_readings_from_one_place_do_not_make_a_wrong_pose_trusted():
+    """Old rules (every range used, a near range as tight as its reading): the waiting
+    firefighter is pulled onto the base and trusted while 3.6 m off, far outside its 95 %
+    ellipse. Now the ranges from one place count once (``radio.shadow_length``) and a
+    near range spreads at least ``radio.near_sigma`` per axis: not trusted while off, and
+    the truth inside the ellipse."""
+    base = {"base": {"position": [0.0, 0.0, 0.0]}, "learn": {"enabled": False}}
+    old = {**base, "radio": {"shadow_length": 0.0, "near_sigma": 0.0}}
+    for params, wrong in ((base, False), (old, True)):
+        pose, err = waiting_near_the_base(params)
+        m2 = float(err @ np.linalg.solve(pose.cov[:2, :2], err))
+        off = np.hypot(*err) > 3.0
+        if wrong:
+            assert off and pose.trusted and m2 > 5.99
+        else:
+            assert not (off and pose.trusted) and m2 <= 5.99

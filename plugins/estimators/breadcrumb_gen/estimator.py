@@ -21,7 +21,10 @@ it), counted, said with the place (``radio_contradiction``), and widens the fire
 published covariance until consistent links return. A range shorter than ``radio.near_range`` - or between nodes whose
 estimated distance is below their relative uncertainty, where its direction is
 meaningless - enters as a zero relative position with the range's spread ("the nodes
-are within r of each other").
+are within r of each other"), at least ``radio.near_sigma`` per axis (fast fading lets a
+few short readings through from metres away, as it does for encounters). A range to a
+fixed node from within ``radio.shadow_length`` walked of the last one used is not used:
+its shadowing is the same (a firefighter waiting by a node gives one range).
 
 Beyond the paper (``heading.enabled``; false gives the paper's GEN): a foot INS errs
 mostly by a drifting heading (residual gyro bias, warm-up drift, gyro scale factor on
@@ -84,6 +87,7 @@ class _State:
     speed: float          # horizontal speed of the step that ended here [m/s]
     heading: str | None   # its heading-state node (None without heading states)
     index: int = -1       # steps since the start (-1: the start state)
+    path: float = 0.0     # horizontal distance the odometry walked since the start [m]
 
 
 @dataclass
@@ -94,6 +98,7 @@ class _Agent:
     pending: list = field(default_factory=list)          # radio/drop events waiting for a state
     last_range: dict = field(default_factory=dict)       # node -> t of the last range used
     mutual: dict = field(default_factory=dict)   # other firefighter -> deque of link times
+    nearby: dict = field(default_factory=dict)   # fixed node -> path [m] at its last range
     nis: float = 1.0          # running normalised innovation of its radio links [-]
     widen: float = 0.0        # extra horizontal variance after a contradiction [m^2]
     contradicted: bool = False          # since the last contradiction, no consistent link
@@ -212,7 +217,8 @@ class BreadcrumbGenEstimator(Estimator):
                     self.gen.add_relative_position(key, prev.key, delta, cov)
                 else:
                     self.gen.add_rotated_position(key, prev.key, heading, delta, cov)
-            st.states.append(_State(key, msg.t, step / dt, heading, st.count - 1))
+            walked = prev.path + min(step, p.odometry.max_speed * dt)
+            st.states.append(_State(key, msg.t, step / dt, heading, st.count - 1, walked))
             st.heading_var += float(np.asarray(msg.cov)[3, 3])
             self._release(msg.agent, st, final=False)
         self.gen.relinearize()
@@ -387,6 +393,9 @@ class BreadcrumbGenEstimator(Estimator):
         if msg.range_m > p.radio.max_range:
             self.ctx.count("range_too_long")
             return
+        if not mutual and self._same_place(st, other, msg.t):
+            self.ctx.count("range_same_place")
+            return
         st.last_range[other] = msg.t
         self._range(msg, agent, a, b, self._mutual_share(st, other, msg.t, mutual), mutual)
 
@@ -406,6 +415,20 @@ class BreadcrumbGenEstimator(Estimator):
         if len(times) > 1:
             self.ctx.count("mutual_links_shared")
         return float(len(times))
+
+    def _same_place(self, st: _Agent, other: str, t: float) -> bool:
+        """Whether a range to the fixed node ``other`` comes from within
+        ``radio.shadow_length`` (walked, by the odometry) of the last one used: its
+        shadowing is the same (fixed in space), so it adds nothing; a firefighter
+        waiting by a breadcrumb or the base station gives one range, however long."""
+        here = self._state_at(st, t)
+        if here is None or self.params.radio.shadow_length <= 0:
+            return False
+        last = st.nearby.get(other)
+        if last is not None and here.path - last < self.params.radio.shadow_length:
+            return True
+        st.nearby[other] = here.path
+        return False
 
     def _learn(self, msg: Range, agent: str, a, b) -> None:
         """A link of known length for the path-loss model (radio_model.py): the base station
@@ -444,7 +467,7 @@ class BreadcrumbGenEstimator(Estimator):
         if self._radio_model is not None and self._radio_model.ready:
             # the learned model says how far apart the nodes were at the peak
             var = max(var, max(msg.range_m ** 2 - (ha - hb) ** 2, 0.0) / 2.0)
-        var = (var + va + vb) * share
+        var = (max(var, self.params.radio.near_sigma ** 2) + va + vb) * share
         cov = np.diag([var, var, 0.3 ** 2])
         cov = self._judged_position(agent, msg.t, na, nb, np.zeros(3), cov, "encounter",
                                     absolute=not mutual)
@@ -547,7 +570,7 @@ class BreadcrumbGenEstimator(Estimator):
         if msg.range_m < p.radio.near_range or pred < spread:
             # the direction is meaningless here: "within r of each other"
             horiz = max(msg.range_m ** 2 - (ha - hb) ** 2, 0.0)
-            v = horiz / 2.0 + var
+            v = max(horiz / 2.0, p.radio.near_sigma ** 2) + var
             cov = self._judged_position(agent, msg.t, na, nb, np.zeros(3),
                                         np.diag([v, v, 0.3 ** 2]), "range", absolute)
             if cov is None:

@@ -23,7 +23,7 @@ class OdometryEdges(Params):
     rotation: dict[str, Angle] = param({}, unit="rad", description="per agent: rotation from "
                                        "the odometry frame into the building frame (default "
                                        "0: odometry already in the building frame)")
-    noise_per_m: float = param(0.05, ge=0, description="extra horizontal std per axis per "
+    noise_per_m: float = param(0.15, ge=0, description="extra horizontal std per axis per "
                                "metre of step, for INS errors the per-step covariance leaves "
                                "out")
     max_speed: float = param(5.0, unit="m/s", gt=0, description="a step faster than this is "
@@ -54,6 +54,9 @@ class Radio(Params):
                              "and the body bias longer ones)")
     near_range: float = param(1.5, unit="m", gt=0, description="shorter ranges enter as a "
                               "zero relative position of that spread")
+    near_sigma: float = param(1.5, unit="m", ge=0, description="least horizontal spread per "
+                              "axis of a near range or an encounter: fast fading lets a few "
+                              "short readings through from metres away")
     period: float = param(2.0, unit="s", ge=0, description="at most one range per firefighter "
                           "and node in this time (shadowing is correlated over metres)")
     static_samples: int = param(10, ge=1, description="readings averaged (median) into the "
@@ -74,6 +77,11 @@ class Radio(Params):
                                         "times the number of such links in that time, and "
                                         "none checks the graph's absolute position "
                                         "(consistency); 0: independent")
+    shadow_length: float = param(1.0, unit="m", ge=0, description="a range to a fixed "
+                                 "node (base station, breadcrumb) from within this distance "
+                                 "walked (odometry) of the last one used is not used: its "
+                                 "shadowing is the same, so a firefighter waiting by a "
+                                 "breadcrumb gives one range, however long; 0: every range")
 
 
 class RadioLearning(Params):
