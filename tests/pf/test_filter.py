@@ -20,6 +20,8 @@ from firenav_plugins.estimators.particle_filter.map_error import SpreadMonitor
 from tests.contract.known import known
 from tests.pf.synthetic import drifting_walk
 
+K99 = math.sqrt(-2.0 * math.log(0.01))   # 99 % radius of a unit 2-D Gaussian
+
 
 @pytest.fixture(scope="module")
 def flat():
@@ -454,3 +456,57 @@ def test_a_plan_that_keeps_refuting_part_of_the_cloud_is_a_contradiction(flat, p
     assert 20.0 < start <= 26.0 and 40.0 < end <= 40.0 + 3.0 / 0.25 + 1
     assert "contradicts the plan near (" in rec.on("diagnostics")[0].text
     assert trusted[19.0] and not any(trusted[t] for t in trusted if start <= t < end)
+
+
+def test_a_pose_the_plan_contradicted_needs_evidence_and_its_covariance_grows(flat):
+    """Issue 15: a cloud the plan contradicted may have settled in a look-alike room where
+    the walls no longer object; with ``trust.refuted_evidence`` 5 m it stays untrusted for
+    5 m walked (20 s at 0.25 m/s) after the plan-evidence episode ends, and while untrusted
+    its published covariance grows by 0.1 m of sigma per metre walked since the last
+    trusted pose (``trust.untrusted_growth``)."""
+    walk, pos = [], np.zeros(3)
+    for k in range(1, 91):
+        delta = np.array([0.25, 0.0, 0.0])
+        pos = pos + delta
+        walk.append(Odometry(t=float(k), agent="ff1", t_start=k - 1.0, delta=delta, dheading=0.0,
+                             cov=np.eye(4) * 1e-4, position=pos.copy(), heading=0.0))
+    params = {"start": pose_start(2.0, 2.0), "motion": {"position_noise": 0.02},
+              "trust": {"plan_evidence": 0.05, "plan_window": 3.0, "refuted_evidence": 5.0,
+                        "untrusted_growth": 0.1}}
+    pf, rec, _ = make_component(ParticleFilterEstimator, params, building=flat)
+    pf.constraints.append(make_component(RefuteHalf, {}, building=flat, cid="refute")[0])
+    pf.start()
+    for msg in walk:
+        pf.handle("odo", msg)
+    (start, *_), (end, *_) = [(d.t, d.code) for d in rec.on("diagnostics")]
+    poses = {p.t: p for p in rec.on("pose")}
+    last_trusted = max(t for t, p in poses.items() if p.trusted and t < start)
+    # the map_error episode has ended, the evidence has not been walked yet
+    assert not any(poses[t].trusted for t in poses if start <= t < end + 5.0 / 0.25 - 1)
+    assert all(poses[t].trusted for t in poses if t >= end + 5.0 / 0.25 + 1)
+    for t in (end, end + 10.0):
+        sigma = 0.1 * 0.25 * (t - last_trusted)
+        assert poses[t].cov[0, 0] >= sigma ** 2 and poses[t].cov[1, 1] >= sigma ** 2
+        assert poses[t].protection_radius >= sigma * K99
+    trusted_after = min(t for t in poses if t > end and poses[t].trusted)
+    assert poses[trusted_after].cov[0, 0] < 0.5       # trusted again: the cloud's own
+
+
+def test_spread_scale_widens_the_published_cloud_not_the_estimate(flat):
+    """``trust.spread_scale`` 2: the same poses, the horizontal covariance of the cloud four
+    times (the kernel added after it), heading variance unchanged."""
+    def poses(scale):
+        params = {"start": pose_start(2.0, 2.0), "seed": 3,
+                  "trust": {"spread_scale": scale, "kernel": 0.5}}
+        pf, rec, _ = make_component(ParticleFilterEstimator, params, building=flat)
+        pf.start()
+        for msg in straight_walk(40):
+            pf.handle("odo", msg)
+        return rec.on("pose")
+    one, two = poses(1.0), poses(2.0)
+    np.testing.assert_array_equal([p.position for p in one], [p.position for p in two])
+    for a, b in zip(one[5:], two[5:]):
+        assert b.cov[0, 0] - 0.25 == pytest.approx(4 * (a.cov[0, 0] - 0.25))
+        assert b.cov[0, 1] == pytest.approx(4 * a.cov[0, 1])
+        assert b.cov[3, 3] == pytest.approx(a.cov[3, 3])
+        assert b.protection_radius > a.protection_radius
