@@ -62,7 +62,9 @@ def test_wrong_plan_pose_carries_an_honest_protection_radius(wrong_plan):
     assert finite.mean() > 0.9
     assert np.mean(pf.horizontal[finite] <= pf.protection[finite]) >= 0.95
     assert np.mean(pf.trusted & (pf.horizontal > 3.0)) <= 0.02
-    assert pf.trusted.mean() > 0.5            # and it is not simply never trusted
+    # and it is not simply never trusted (0.49 since the doubt rules of issue 15 round 4,
+    # which halve the share trusted on the tuning runs: docs/particle-filter.md)
+    assert pf.trusted.mean() > 0.4
 
 
 def test_crawl_is_not_trusted_while_off():
@@ -80,4 +82,6 @@ def test_consumer_imu_is_not_trusted_while_off():
     ins = measured(INS, "field_flat_consumer", 107, None)
     assert rmse(pf) < rmse(ins)
     assert np.mean(pf.trusted & (pf.horizontal > 3.0)) <= 0.02
-    assert pf.trusted.mean() > 0.3            # and it is not simply never trusted
+    # and it is not simply never trusted (0.41 before the doubt rules of issue 15 round 4,
+    # 0.14 with them: on this run 3.6 m RMSE the filter is now trusted only early on)
+    assert pf.trusted.mean() > 0.1

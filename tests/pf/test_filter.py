@@ -20,6 +20,8 @@ from firenav_plugins.estimators.particle_filter.map_error import SpreadMonitor
 from tests.contract.known import known
 from tests.pf.synthetic import drifting_walk
 
+K99 = math.sqrt(-2.0 * math.log(0.01))   # 99 % radius of a unit 2-D Gaussian
+
 
 @pytest.fixture(scope="module")
 def flat():
@@ -127,10 +129,11 @@ class Disturb(ParticleConstraint):
         return None
 
 
-def straight_walk(n=60, agent="ff1"):
+def straight_walk(n=60, agent="ff1", step_m=0.05):
+    """``n`` odometry increments of ``step_m`` [m] east, one a second."""
     out, pos = [], np.zeros(3)
     for k in range(1, n + 1):
-        delta = np.array([0.05, 0.0, 0.0])
+        delta = np.array([step_m, 0.0, 0.0])
         pos = pos + delta
         out.append(Odometry(t=float(k), agent=agent, t_start=k - 1.0, delta=delta, dheading=0.0,
                             cov=np.eye(4) * 1e-4, position=pos.copy(), heading=0.0))
@@ -424,25 +427,26 @@ class RefuteHalf(ParticleConstraint):
         return np.where(p.xy[:, 0] > p.weights @ p.xy[:, 0], math.log(0.05), 0.0)
 
 
+def run_refute_half(flat, trust: dict, n: int):
+    """The filter's recorder after ``n`` s walking east at 0.25 m/s from (2, 2) m with
+    :class:`RefuteHalf` between 20 and 40 s and these ``trust`` parameters."""
+    params = {"start": pose_start(2.0, 2.0), "motion": {"position_noise": 0.02},
+              "trust": trust}
+    pf, rec, _ = make_component(ParticleFilterEstimator, params, building=flat)
+    pf.constraints.append(make_component(RefuteHalf, {}, building=flat, cid="refute")[0])
+    pf.start()
+    for msg in straight_walk(n, step_m=0.25):
+        pf.handle("odo", msg)
+    return rec
+
+
 @pytest.mark.parametrize("plan_evidence", [None, 0.05])
 def test_a_plan_that_keeps_refuting_part_of_the_cloud_is_a_contradiction(flat, plan_evidence):
     """Issue 15: a motion the plan keeps contradicting a part at a time (about half the
     weight per update) never takes the smoothed contradiction level below its floor; the
     product of the retained shares over the last 3 m does: map_error with the place and
     untrusted while it lasts, trusted again once the plan agrees over 3 m."""
-    walk, pos = [], np.zeros(3)
-    for k in range(1, 61):
-        delta = np.array([0.25, 0.0, 0.0])
-        pos = pos + delta
-        walk.append(Odometry(t=float(k), agent="ff1", t_start=k - 1.0, delta=delta, dheading=0.0,
-                             cov=np.eye(4) * 1e-4, position=pos.copy(), heading=0.0))
-    params = {"start": pose_start(2.0, 2.0), "motion": {"position_noise": 0.02},
-              "trust": {"plan_evidence": plan_evidence, "plan_window": 3.0}}
-    pf, rec, _ = make_component(ParticleFilterEstimator, params, building=flat)
-    pf.constraints.append(make_component(RefuteHalf, {}, building=flat, cid="refute")[0])
-    pf.start()
-    for msg in walk:
-        pf.handle("odo", msg)
+    rec = run_refute_half(flat, {"plan_evidence": plan_evidence, "plan_window": 3.0}, 60)
     diags = [(d.t, d.code, d.level, d.active) for d in rec.on("diagnostics")]
     trusted = {p.t: p.trusted for p in rec.on("pose")}
     if plan_evidence is None:       # today's monitors: no map_error, trusted while refuted
@@ -454,3 +458,45 @@ def test_a_plan_that_keeps_refuting_part_of_the_cloud_is_a_contradiction(flat, p
     assert 20.0 < start <= 26.0 and 40.0 < end <= 40.0 + 3.0 / 0.25 + 1
     assert "contradicts the plan near (" in rec.on("diagnostics")[0].text
     assert trusted[19.0] and not any(trusted[t] for t in trusted if start <= t < end)
+
+
+def test_a_pose_the_plan_contradicted_needs_evidence_and_its_covariance_grows(flat):
+    """Issue 15: a cloud the plan contradicted may have settled in a look-alike room where
+    the walls no longer object; with ``trust.refuted_evidence`` 5 m it stays untrusted for
+    5 m walked (20 s at 0.25 m/s) after the plan-evidence episode ends, and while untrusted
+    its published covariance grows by 0.1 m of sigma per metre walked since the last
+    trusted pose (``trust.untrusted_growth``)."""
+    rec = run_refute_half(flat, {"plan_evidence": 0.05, "plan_window": 3.0,
+                                 "refuted_evidence": 5.0, "untrusted_growth": 0.1}, 90)
+    (start, *_), (end, *_) = [(d.t, d.code) for d in rec.on("diagnostics")]
+    poses = {p.t: p for p in rec.on("pose")}
+    last_trusted = max(t for t, p in poses.items() if p.trusted and t < start)
+    # the map_error episode has ended, the evidence has not been walked yet
+    assert not any(poses[t].trusted for t in poses if start <= t < end + 5.0 / 0.25 - 1)
+    assert all(poses[t].trusted for t in poses if t >= end + 5.0 / 0.25 + 1)
+    for t in (end, end + 10.0):
+        sigma = 0.1 * 0.25 * (t - last_trusted)
+        assert poses[t].cov[0, 0] >= sigma ** 2 and poses[t].cov[1, 1] >= sigma ** 2
+        assert poses[t].protection_radius >= sigma * K99
+    trusted_after = min(t for t in poses if t > end and poses[t].trusted)
+    assert poses[trusted_after].cov[0, 0] < 0.5       # trusted again: the cloud's own
+
+
+def test_spread_scale_widens_the_published_cloud_not_the_estimate(flat):
+    """``trust.spread_scale`` 2: the same poses, the horizontal covariance of the cloud four
+    times (the kernel added after it), heading variance unchanged."""
+    def poses(scale):
+        params = {"start": pose_start(2.0, 2.0), "seed": 3,
+                  "trust": {"spread_scale": scale, "kernel": 0.5}}
+        pf, rec, _ = make_component(ParticleFilterEstimator, params, building=flat)
+        pf.start()
+        for msg in straight_walk(40):
+            pf.handle("odo", msg)
+        return rec.on("pose")
+    one, two = poses(1.0), poses(2.0)
+    np.testing.assert_array_equal([p.position for p in one], [p.position for p in two])
+    for a, b in zip(one[5:], two[5:]):
+        assert b.cov[0, 0] - 0.25 == pytest.approx(4 * (a.cov[0, 0] - 0.25))
+        assert b.cov[0, 1] == pytest.approx(4 * a.cov[0, 1])
+        assert b.cov[3, 3] == pytest.approx(a.cov[3, 3])
+        assert b.protection_radius > a.protection_radius

@@ -9,7 +9,7 @@ import pytest
 
 from firenav_framework.capabilities import Particles
 from firenav_plugins.estimators.particle_filter.trust import (
-    ContradictionMonitor, JumpMonitor, PlanEvidenceMonitor, cloud_protection_radius,
+    ContradictionMonitor, DoubtMonitor, JumpMonitor, PlanEvidenceMonitor, cloud_protection_radius,
     retained_fraction)
 
 K99 = math.sqrt(-2.0 * math.log(0.01))   # 99 % radius of a unit 2-D Gaussian
@@ -91,3 +91,27 @@ def test_plan_evidence_multiplies_the_retained_shares_over_the_window():
     after = [ev.update(1.0, 0.25) for _ in range(14)]
     assert after[:8] == [True] * 8 and not any(after[-2:])
     assert ev.update(0.0, 0.25)                                       # everything refuted
+
+
+def test_doubt_monitor_waits_for_evidence_and_grows_while_untrusted():
+    m = DoubtMonitor(evidence_m=2.0, growth=0.1)
+    m.update(1.0, contradicted=False)
+    assert not m.awaiting_evidence and m.published(True) == 0.0     # no contradiction yet
+    m.update(1.0, contradicted=True)
+    assert m.awaiting_evidence and m.published(False) == pytest.approx(0.1)
+    m.update(1.5, contradicted=False)
+    assert m.awaiting_evidence and m.published(False) == pytest.approx(0.25)
+    m.update(1.0, contradicted=False)                 # 2.5 m since the contradiction
+    assert not m.awaiting_evidence
+    assert m.published(True) == 0.0                   # trusted again: no growth
+    m.update(3.0, contradicted=False)
+    assert m.published(False) == pytest.approx(0.3)   # counted from the last trusted pose
+
+
+def test_spread_scale_widens_the_clouds_own_radius_not_the_kernel():
+    xy = np.vstack([np.zeros((50, 2)), np.full((50, 2), [2.0, 0.0])])
+    p = Particles.create(xy, 0.0)
+    centre = np.array([1.0, 0.0])
+    assert cloud_protection_radius(p, centre, 0, 0.99, 0.0, 1.5) == pytest.approx(1.5)
+    assert cloud_protection_radius(p, centre, 0, 0.99, 0.5, 1.5) == pytest.approx(
+        math.hypot(1.5, 0.5 * K99))

@@ -19,9 +19,10 @@ Per firefighter, once per odometry update (the paper downsamples odometry to 2 H
 5. output: the weighted mean pose (the MMSE estimate of §V-B) with its covariance,
    and the map-error monitor of §V-E (:mod:`.map_error`).
 
-Integrity (:mod:`.trust`): the published covariance is the cloud's plus a kernel of
-``trust.kernel`` per axis; ``protection_radius`` is the cloud's 99 % radius about the
-mean (a second cluster counts in full); ``trusted`` holds while it is within
+Integrity (:mod:`.trust`): the published covariance is the cloud's (its horizontal
+block ``trust.spread_scale`` squared times wider) plus a kernel of ``trust.kernel`` per
+axis; ``protection_radius`` is the cloud's 99 % radius about the mean (a second cluster
+counts in full; ``trust.spread_scale`` times wider); ``trusted`` holds while it is within
 ``integrity.alert_limit`` and no ``map_error`` is active. ``map_error`` (a warning with
 the place, cleared with ``active=False``) comes from the spread monitor of §V-E
 (:mod:`.map_error`: ``cov[0,0] + cov[1,1]`` above ``map_error.variance`` after the filter
@@ -30,7 +31,10 @@ cloud, during which the cloud is widened rather than held; with ``trust.plan_evi
 also refuting parts of it over the last ``trust.plan_window`` metres). With ``trust.jump`` set, a
 jump of the mean between hypotheses that the particles' own motion does not explain
 (:class:`.trust.JumpMonitor`) raises ``hypothesis_jump`` and keeps the pose untrusted until
-``trust.jump_evidence`` metres have been walked.
+``trust.jump_evidence`` metres have been walked. With ``trust.refuted_evidence`` the pose
+stays untrusted for that many metres after a contradiction of the plan, and with
+``trust.untrusted_growth`` an untrusted pose's covariance and protection radius grow with
+the distance walked since it was last trusted (:class:`.trust.DoubtMonitor`).
 """
 from __future__ import annotations
 
@@ -55,7 +59,7 @@ from .params import ParticleFilterParams
 from .particles import ParticleSummary, local_log_weight, normalise_log_weights
 from .resampling import replace_removed, resample_indices
 from .stairs import StairRegions
-from .trust import (ContradictionMonitor, JumpMonitor, PlanEvidenceMonitor,
+from .trust import (ContradictionMonitor, DoubtMonitor, JumpMonitor, PlanEvidenceMonitor,
                     cloud_protection_radius, retained_fraction, roughen)
 
 __all__ = ["ParticleFilterEstimator"]
@@ -98,6 +102,8 @@ class _AgentState:
     evidence: PlanEvidenceMonitor | None = None
     #: whether the plan's refutations over the last metres contradict the motion
     plan_refuted: bool = False
+    #: evidence after a contradiction and the untrusted pose's growth (None: both off)
+    doubt: DoubtMonitor | None = None
 
 
 class ParticleFilterEstimator(Estimator):
@@ -131,7 +137,10 @@ class ParticleFilterEstimator(Estimator):
                            jump=(JumpMonitor(tr.jump, tr.jump_evidence, tr.jump_window)
                                  if tr.jump is not None else None),
                            evidence=(PlanEvidenceMonitor(tr.plan_evidence, tr.plan_window)
-                                     if tr.plan_evidence is not None else None))
+                                     if tr.plan_evidence is not None else None),
+                           doubt=(DoubtMonitor(tr.refuted_evidence, tr.untrusted_growth)
+                                  if tr.refuted_evidence > 0 or tr.untrusted_growth > 0
+                                  else None))
 
     def reset(self, agent: str) -> None:
         self.state.reset(agent)
@@ -294,13 +303,14 @@ class ParticleFilterEstimator(Estimator):
         tr = self.params.trust
         if st.evidence is not None:
             st.plan_refuted = st.evidence.update(retained, walked_m)
-        if tr.retained_floor <= 0:
-            return
         mon = st.contradiction
-        if mon.update(step.t, retained):
-            self.ctx.count("plan_contradictions")
-        if mon.widening():
-            roughen(step.particles, tr.widen_position, tr.widen_heading, step.rng)
+        if tr.retained_floor > 0:
+            if mon.update(step.t, retained):
+                self.ctx.count("plan_contradictions")
+            if mon.widening():
+                roughen(step.particles, tr.widen_position, tr.widen_heading, step.rng)
+        if st.doubt is not None:
+            st.doubt.update(walked_m, st.plan_refuted or mon.widening())
 
     def _replace_by_constraints(self, step: ParticleStep) -> None:
         p = step.particles
@@ -337,18 +347,25 @@ class ParticleFilterEstimator(Estimator):
         self._map_error(agent, st, step.t, summary)
         self._jump(agent, st, step.t, summary.xy, propagated_mean, walked_m)
         tr, integ = self.params.trust, self.params.integrity
-        cov = summary.cov.copy()
+        widen = np.array([tr.spread_scale, tr.spread_scale, 1.0, 1.0])
+        cov = summary.cov * np.outer(widen, widen)
         cov[0, 0] += tr.kernel ** 2
         cov[1, 1] += tr.kernel ** 2
         radius = cloud_protection_radius(p, summary.xy, summary.floor, integ.containment,
-                                         tr.kernel)
+                                         tr.kernel, tr.spread_scale)
+        ok = trusted(radius, integ, contradicted=st.map_error or (
+            st.jump is not None and st.jump.awaiting_evidence) or (
+            st.doubt is not None and st.doubt.awaiting_evidence))
+        if st.doubt is not None:
+            grow = st.doubt.published(ok)
+            cov[0, 0] += grow ** 2
+            cov[1, 1] += grow ** 2
+            radius = math.hypot(radius, grow * math.sqrt(-2.0 * math.log1p(-integ.containment)))
         self.ctx.publish("pose", PoseEstimate(
             t=step.t, agent=agent, device=step.odometry.device,
             position=np.array([summary.xy[0], summary.xy[1], summary.z]),
             heading=summary.heading, cov=cov, floor=summary.floor,
-            protection_radius=radius,
-            trusted=trusted(radius, integ, contradicted=st.map_error or (
-                st.jump is not None and st.jump.awaiting_evidence))))
+            protection_radius=radius, trusted=ok))
 
     def _jump(self, agent: str, st: _AgentState, t: float, mean: np.ndarray,
               propagated_mean: np.ndarray | None, walked_m: float) -> None:

@@ -114,6 +114,10 @@ class Trust(Params):
     kernel: float = param(0.5, unit="m", ge=0, description="each particle blurred by a "
                           "Gaussian of this sigma per axis in the protection radius and the "
                           "published covariance")
+    spread_scale: float = param(1.0, ge=1, description="the cloud's horizontal spread is "
+                                "taken this many times wider in the protection radius and the "
+                                "published covariance (a cloud under a plan that is partly "
+                                "wrong is narrower than its error)")
     retained_floor: float = param(0.25, ge=0, lt=1, description="smoothed share of the prior "
                                   "weight the constraints keep below which the motion "
                                   "contradicts the plan (0 disables)")
@@ -140,6 +144,14 @@ class Trust(Params):
                                         "disables)")
     plan_window: float = param(10.0, unit="m", gt=0, description="distance walked over which "
                                "plan_evidence multiplies the retained shares")
+    refuted_evidence: float = param(0.0, unit="m", ge=0, description="after the plan "
+                                    "contradicted the cloud (either monitor), the pose stays "
+                                    "untrusted until this distance is walked without another "
+                                    "contradiction (0 disables)")
+    untrusted_growth: float = param(0.0, ge=0, description="while the pose is not trusted, a "
+                                    "horizontal sigma of this much per metre walked since it "
+                                    "last was [m/m] is added per axis to the published "
+                                    "covariance (0 disables)")
 
 
 class Stairs(Params):

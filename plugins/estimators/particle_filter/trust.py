@@ -4,8 +4,10 @@
   about the reported mean (:func:`firenav_framework.integrity.sample_protection_radius`,
   so a second cluster counts in full), each particle blurred by a Gaussian kernel of
   ``kernel_m`` per axis (the cloud is a finite sample of a posterior that also carries
-  the plan's own inaccuracy). Weight on another floor than the reported one beyond
-  ``1 - containment`` gives ``inf``: the floor itself is in doubt.
+  the plan's own inaccuracy), the cloud's own radius taken ``scale`` times wider (a cloud
+  the walls of a partly wrong plan hold is narrower than its error). Weight on another
+  floor than the reported one beyond ``1 - containment`` gives ``inf``: the floor itself
+  is in doubt.
 * :class:`ContradictionMonitor`: the *retained fraction* of an update is the prior
   weight of the cloud the constraints leave standing relative to the best particle,
   ``sum_i w_i exp(l_i - max l)`` (1: every particle as likely as the best; 0: the walls
@@ -29,6 +31,13 @@
   walls) adds up instead. The product of the retained fractions over the last
   ``window_m`` metres walked below ``floor`` means the motion contradicts the plan there:
   the pose is untrusted and ``map_error`` raised with the place while it lasts.
+* :class:`DoubtMonitor`: a cloud the plan contradicted may have been pushed into a
+  look-alike room and settle there, where the walls no longer object. After a
+  contradiction (either monitor above) the pose stays untrusted until ``evidence_m``
+  metres have been walked without another one; and while the pose is not trusted its
+  published covariance grows by ``growth`` metres of sigma per axis for every metre
+  walked since it last was (the cloud's own spread says where the plan put it, not how
+  far that may be from the firefighter; the growth is of the order of an INS's drift).
 """
 from __future__ import annotations
 
@@ -43,18 +52,19 @@ from firenav_framework.geometry import wrap_angles
 from firenav_framework.integrity import sample_protection_radius
 
 __all__ = ["cloud_protection_radius", "retained_fraction", "ContradictionMonitor", "JumpMonitor",
-           "PlanEvidenceMonitor", "roughen"]
+           "PlanEvidenceMonitor", "DoubtMonitor", "roughen"]
 
 
 def cloud_protection_radius(p: Particles, centre_xy: np.ndarray, floor: int,
-                            containment: float, kernel_m: float) -> float:
-    """Protection radius [m] of cloud ``p`` about ``centre_xy`` (2,) on ``floor``."""
+                            containment: float, kernel_m: float, scale: float = 1.0) -> float:
+    """Protection radius [m] of cloud ``p`` about ``centre_xy`` (2,) on ``floor``, the
+    cloud's own radius taken ``scale`` times wider."""
     w = p.weights
     same = p.floor == floor
     if float(np.sum(w[~same])) > 1.0 - containment:
         return math.inf
     r = sample_protection_radius(p.xy[same], w[same], centre_xy, containment)
-    return math.hypot(r, kernel_m * math.sqrt(-2.0 * math.log1p(-containment)))
+    return math.hypot(scale * r, kernel_m * math.sqrt(-2.0 * math.log1p(-containment)))
 
 
 def retained_fraction(logw: np.ndarray, loglik: np.ndarray) -> float:
@@ -156,6 +166,38 @@ class PlanEvidenceMonitor:
             self.log_sum -= self.recent.popleft()[1]
         self.log_sum = min(self.log_sum, 0.0)
         return self.log_sum < math.log(self.floor)
+
+
+@dataclass
+class DoubtMonitor:
+    """Per firefighter: evidence after a contradiction, and the uncertainty an untrusted
+    pose accumulates (see the module)."""
+
+    evidence_m: float
+    growth: float
+    #: metres walked since the last contradiction (inf: none yet)
+    walked_since_contradiction_m: float = math.inf
+    #: metres walked since the pose was last trusted
+    walked_untrusted_m: float = 0.0
+
+    def update(self, walked_m: float, contradicted: bool) -> None:
+        """Feed one update's distance walked [m] and whether the plan contradicts the
+        cloud at it."""
+        self.walked_since_contradiction_m = (
+            0.0 if contradicted else self.walked_since_contradiction_m + max(walked_m, 0.0))
+        self.walked_untrusted_m += max(walked_m, 0.0)
+
+    @property
+    def awaiting_evidence(self) -> bool:
+        """The pose must not be trusted: a contradiction less than ``evidence_m`` walked ago."""
+        return self.walked_since_contradiction_m < self.evidence_m
+
+    def published(self, trusted: bool) -> float:
+        """Note whether this update's pose is trusted; the sigma [m] per axis to add to
+        its published covariance (0 while trusted)."""
+        if trusted:
+            self.walked_untrusted_m = 0.0
+        return self.growth * self.walked_untrusted_m
 
 
 def roughen(p: Particles, sigma_m: float, sigma_rad: float, rng: np.random.Generator) -> None:
