@@ -16,6 +16,14 @@ estimators (so every row of a seed comes from the same simulated data):
     python benchmarks/bench_team_incident.py --seeds 1000-1019 --workers 2 \
         --json out/team-incident.json --runs out/team-incident-runs
 
+``--no-ablations`` runs team_fusion and the single methods only (one team_fusion, no
+second ORCA: a run about a third cheaper). ``--record`` keeps, per seed, every message
+``team`` received (in order) with the truth; ``--replay`` then computes team_fusion's
+rows again from those recordings through the estimator with the pipeline's current
+settings (``--set quality.margin=4``-style overrides of team's parameters on top),
+without running the methods: the same figures as running the pipeline when the
+settings are the same (bit-identical on the short incident).
+
 A GEN row is left out for a firefighter without a radio (its pose is then the odometry
 it was given). Figures: pooled horizontal RMSE and p95 [m] over the seeds, the per-run RMSE spread
 (min / median / max), the share of runs that beat INS alone (``dr``), floor right,
@@ -47,9 +55,13 @@ ABLATIONS = {"team": "all sources", "team_no_tags": "no tags", "team_no_bc": "no
              "team_no_uwb": "no UWB", "team_no_plan": "no plan", "team_no_baro": "no barometer"}
 
 
-def ablation_pipeline(path: Path = PIPELINE) -> dict:
-    """``pipelines/incident.yaml`` with the ablation estimators added and no sinks."""
+def ablation_pipeline(path: Path = PIPELINE, ablations: bool = True) -> dict:
+    """``pipelines/incident.yaml`` with the ablation estimators added (unless not
+    ``ablations``) and no sinks."""
     spec = yaml.safe_load(path.read_text())
+    spec["sinks"] = []
+    if not ablations:
+        return spec
     est = spec["estimators"]
     by_id = {e["id"]: e for e in est}
     team = by_id["team"]
@@ -70,22 +82,26 @@ def ablation_pipeline(path: Path = PIPELINE) -> dict:
     est += [variant("team_no_tags", {"ekf"}), variant("team_no_bc", {"gen"}),
             variant("team_no_uwb", {"mm"}, ("mm_no_uwb.pose",)),
             variant("team_no_plan", {"pf", "mm", "ekf"}), variant("team_no_baro", {"baro"})]
-    spec["sinks"] = []
     return spec
 
 
-def run_seed(args: tuple[str, int, str | None]) -> dict:
-    """Run one seed; the TrackErrors of every pose stream per agent."""
-    pipeline, seed, scenario = args
+def run_seed(args: tuple[str, int, str | None, bool]) -> dict:
+    """Run one seed; the TrackErrors of every pose stream per agent (and, when
+    ``record``, what ``team`` received, the truth and the building)."""
+    pipeline, seed, scenario, record = args
     from firenav_framework.evaluation.metrics import track_errors
     from firenav_framework.pipeline import load_pipeline
-    from firenav_framework.runner import run_pipeline
+    from firenav_framework.runner import Runner
     over = [f"sources.sim.seed={seed}"]
     if scenario:
         over.append(f"sources.sim.scenario={json.dumps(scenario)}")
     spec = load_pipeline(pipeline, over)
+    received: list = []
     with tempfile.TemporaryDirectory(prefix="bench-team-") as out:
-        result = run_pipeline(spec, output_dir=Path(out))
+        runner = Runner(spec, output_dir=Path(out))
+        if record:
+            _record_inputs(runner, "team", received)
+        result = runner.run()
     levels = np.array([f.z for f in result.building.floors])
     errors = {}
     for stream, tracks in result.tracks.items():
@@ -95,7 +111,63 @@ def run_seed(args: tuple[str, int, str | None]) -> dict:
         for agent, tr in tracks.items():
             if agent in result.truth:
                 errors[(comp, agent)] = track_errors(tr, result.truth[agent], levels)
-    return {"seed": seed, "errors": errors}
+    run = {"seed": seed, "errors": errors}
+    if record:
+        run["recording"] = {"messages": received, "truth": result.truth,
+                            "building": result.building}
+    return run
+
+
+def _record_inputs(runner, cid: str, into: list) -> None:
+    """Append every ``(stream, message)`` component ``cid`` is handed in the run to ``into``."""
+    build = runner.build
+
+    def build_and_tap() -> None:
+        build()
+        comp = runner.components[cid]
+        handle = comp.handle
+
+        def recorded(stream, msg) -> None:
+            into.append((stream, msg))
+            handle(stream, msg)
+        comp.handle = recorded
+    runner.build = build_and_tap
+
+
+def team_params(path: Path = PIPELINE, overrides: list[str] = ()) -> dict:
+    """``team``'s parameters in the pipeline, with ``key.sub=value`` overrides (YAML
+    values; ``inputs.mm.pose.inflate=2`` sets ``inflate`` of the input ``mm.pose``)."""
+    spec = yaml.safe_load(path.read_text())
+    team = next(e for e in spec["estimators"] if e["id"] == "team")
+    params = {k: v for k, v in team.items() if k not in ("id", "plugin", "input")}
+    for expr in overrides:
+        key, _, value = expr.partition("=")
+        *parents, leaf = key.split(".")
+        if parents[:1] == ["inputs"]:               # inputs.<stream with dots>.<field>
+            parents = ["inputs", ".".join(parents[1:])]
+        node = params
+        for k in parents:
+            node = node.setdefault(k, {})
+        node[leaf] = yaml.safe_load(value)
+    return params
+
+
+def replay(recording: dict, params: dict, comp: str = "team") -> dict:
+    """team_fusion with ``params`` on a seed's recorded inputs: TrackErrors per agent,
+    keyed ``(comp, agent)``."""
+    from firenav_framework.evaluation.metrics import track_errors
+    from firenav_framework.testing import Session
+    from firenav_framework.tracks import TrackStore
+    from firenav_plugins.estimators.team_fusion import TeamFusionEstimator
+    rec = Session(TeamFusionEstimator, params, building=recording["building"],
+                  ticks=False).run(recording["messages"])
+    store = TrackStore()
+    for msg in rec.on("pose"):
+        store("team.pose", msg)
+    truth, building = recording["truth"], recording["building"]
+    levels = np.array([f.z for f in building.floors])
+    return {(comp, agent): track_errors(tr, truth[agent], levels)
+            for agent, tr in store.tracks().get("team.pose", {}).items() if agent in truth}
 
 
 def rmse(e) -> float:
@@ -160,7 +232,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", default=None)
     ap.add_argument("--runs", default=None, help="folder keeping each seed's errors "
                     "(a seed already there is not run again)")
+    ap.add_argument("--no-ablations", action="store_true", help="team_fusion and the "
+                    "single methods only")
+    ap.add_argument("--record", action="store_true", help="keep what team received in "
+                    "each seed's file (needs --runs)")
+    ap.add_argument("--replay", action="store_true", help="team_fusion's rows from the "
+                    "recorded seeds in --runs with today's settings (no pipeline run)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="with --replay: override one of team's parameters")
     a = ap.parse_args(argv)
+    if (a.record or a.replay) and not a.runs:
+        ap.error("--record and --replay need --runs")
     seeds = parse_seeds(a.seeds)
     keep = Path(a.runs) if a.runs else None
     runs, todo = [], []
@@ -168,12 +250,21 @@ def main(argv: list[str] | None = None) -> int:
         f = keep / f"seed{s}.pkl" if keep else None
         if f is not None and f.exists():
             runs.append(pickle.loads(f.read_bytes()))
+        elif a.replay:
+            print(f"seed {s}: no recording in {keep}, left out", file=sys.stderr)
         else:
             todo.append(s)
+    if a.replay:
+        params = team_params(overrides=a.set)
+        for r in runs:
+            if "recording" not in r:
+                ap.error(f"seed {r['seed']} in {keep} was run without --record")
+            r["errors"] = {k: v for k, v in r["errors"].items() if k[0] not in ABLATIONS}
+            r["errors"].update(replay(r["recording"], params))
     with tempfile.TemporaryDirectory(prefix="bench-team-pipe-") as tmp:
         path = Path(tmp) / "incident-ablations.yaml"
-        path.write_text(yaml.safe_dump(ablation_pipeline()))
-        jobs = [(str(path), s, a.scenario) for s in todo]
+        path.write_text(yaml.safe_dump(ablation_pipeline(ablations=not a.no_ablations)))
+        jobs = [(str(path), s, a.scenario, a.record) for s in todo]
         with ProcessPoolExecutor(max(1, a.workers)) as ex:
             for r in ex.map(run_seed, jobs):
                 print(f"seed {r['seed']} done", file=sys.stderr, flush=True)
@@ -187,8 +278,9 @@ def main(argv: list[str] | None = None) -> int:
     abl_rows = [x for ag in agents for c in ABLATIONS if (x := row(c, ag, runs))]
     print(f"incident, seeds {a.seeds} ({len(runs)} runs), scenario {a.scenario or 'incident'}\n")
     print(table(main_rows, METHODS))
-    print("\nAblations (team_fusion without one source):\n")
-    print(table(abl_rows, ABLATIONS))
+    if any(r["component"] != "team" for r in abl_rows):
+        print("\nAblations (team_fusion without one source):\n")
+        print(table(abl_rows, ABLATIONS))
     if a.json:
         Path(a.json).parent.mkdir(parents=True, exist_ok=True)
         Path(a.json).write_text(json.dumps({"seeds": seeds, "rows": main_rows,

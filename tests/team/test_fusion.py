@@ -142,6 +142,19 @@ def test_estimator_rejects_an_input_that_contradicts_the_others():
         assert p.protection_radius == pytest.approx(gaussian_protection_radius(p.cov[:2, :2]))
 
 
+def test_a_second_input_vouches_up_to_the_support_radius():
+    """A tight input (0.3 m) is trusted with a second input whose own 99 % radius
+    (3.03 sigma) is within `support.radius` (10 m): sigma 3 m (9.1 m) vouches, 3.5 m
+    (10.6 m) does not, and the tight input alone is never trusted."""
+    for sigma, vouches in ((3.0, True), (3.5, False)):
+        poses, _, _ = _run(lambda t, x: [("a.pose", _pose(t, x, 0.0, 0.3)),
+                                         ("b.pose", _pose(t, x, 0.0, sigma))],
+                           {"quality": {"enabled": False}})
+        assert all(p.protection_radius <= 3.0 for p in poses)
+        assert [p.trusted for p in poses[1:]] == [vouches] * (len(poses) - 1)
+        assert not poses[0].trusted         # a alone, before b's first pose
+
+
 def test_a_contradicting_input_is_widened_online_and_never_pulls():
     # the same inputs with the learned factors: c is left out until its factor has
     # grown to hold its 9.4 m offset, then it agrees and is fused with a weight too

@@ -60,8 +60,9 @@ class Support(Params):
     inputs: int = param(2, ge=1, description="a fused pose is trusted only when at least "
                         "this many of its fused inputs have on their own a protection "
                         "radius within `radius` (one method alone is checked by nothing)")
-    radius: float = param(6.0, unit="m", gt=0, description="an input's own protection "
-                          "radius (after `inflate`) up to which it vouches for the pose")
+    radius: float = param(10.0, unit="m", gt=0, description="an input's own protection "
+                          "radius (after `inflate` and its learned factor) up to which it "
+                          "vouches for the pose")
 
 
 class Quality(Params):
