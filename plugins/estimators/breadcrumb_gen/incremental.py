@@ -85,8 +85,10 @@ class Refactorisation:
 class _Worker(threading.Thread):
     """Assembles and factorises one system off the caller's thread, installs it in a solver
     of its own and then *catches up*: applies the operations the caller logs meanwhile
-    (:meth:`push`), in their order, as they arrive, so that at the hand-over the caller
-    only swaps that solver in. ``assemble`` returns an object with ``L``, ``b`` and
+    (:meth:`push`), in their order, so that at the hand-over the caller only swaps that
+    solver in. It starts, and goes on, only with what the caller has :meth:`release` d
+    (between updates: its sparse solves and Python steps hold the GIL, which would
+    stretch an update it overlaps). ``assemble`` returns an object with ``L``, ``b`` and
     ``nodes``; ``touch`` and ``clock`` are the caller's touch counters at the snapshot
     (the order in which the next refactorisation's hot nodes are chosen), ``capacity``
     the active-set dimensions to make room for (at least the caller's). Errors are
@@ -100,7 +102,8 @@ class _Worker(threading.Thread):
         self._capacity = capacity
         self._cond = threading.Condition()
         self._ops: list[tuple[str, tuple]] = []      # logged by the caller
-        self._applied = 0                            # of them, applied by the worker
+        self._released = -1          # of them, how many the worker may apply (-1: not
+        self._applied = 0            # even the factorisation yet); applied so far
         self._closed = False         # hand-over: apply what is logged, then stop
         self._dropped = False        # the caller is gone: stop now
         self._solver: IncrementalBlue | None = None
@@ -108,6 +111,10 @@ class _Worker(threading.Thread):
 
     def run(self) -> None:
         try:
+            with self._cond:
+                self._cond.wait_for(lambda: self._released >= 0 or self._dropped)
+            if self._dropped:
+                return
             system = self._assemble()
             f = Refactorisation(system.L, system.b, system.nodes, self._hot, self._dim)
             solver = IncrementalBlue(self._dim, max_active_dims=self._max_active_dims)
@@ -122,8 +129,9 @@ class _Worker(threading.Thread):
             while True:
                 with self._cond:
                     self._cond.wait_for(lambda: self._closed or self._dropped
-                                        or self._applied < len(self._ops))
-                    todo = [] if self._dropped else self._ops[self._applied:]
+                                        or self._applied < self._released)
+                    end = len(self._ops) if self._closed else self._released
+                    todo = [] if self._dropped else self._ops[self._applied:end]
                 if not todo:
                     return
                 for op, args in todo:
@@ -140,6 +148,11 @@ class _Worker(threading.Thread):
         """Log one operation (a solver method name and its arguments) for the catch-up."""
         with self._cond:
             self._ops.append((op, args))
+
+    def release(self) -> None:
+        """Let the worker go on with everything logged so far (the factorisation first)."""
+        with self._cond:
+            self._released = len(self._ops)
             self._cond.notify_all()
 
     def drop(self) -> None:
@@ -149,17 +162,18 @@ class _Worker(threading.Thread):
             self._cond.notify_all()
 
     def caught_up(self, timeout: float | None) -> bool:
-        """Whether the factorisation is done and every logged operation applied, waiting
+        """Whether the factorisation is done and every released operation applied, waiting
         at most ``timeout`` [s] of wall time (None: until then)."""
         with self._cond:
             return self._cond.wait_for(
                 lambda: self._error is not None
-                or (self._solver is not None and self._applied == len(self._ops)), timeout)
+                or (self._solver is not None and self._applied >= self._released), timeout)
 
     def result(self) -> tuple[IncrementalBlue, int]:
         """The caught-up solver and how many logged operations it applied (waits)."""
         with self._cond:
             self._closed = True
+            self._released = max(self._released, 0)
             self._cond.notify_all()
         self.join()
         if self._error is not None:
@@ -478,9 +492,10 @@ class IncrementalBlue:
 
     def start_rebuild(self, assemble: Callable[[], object], hot: Sequence[int] = ()) -> None:
         """:meth:`rebuild` of the system ``assemble()`` returns (an object with ``L``, ``b``
-        and ``nodes``, built from a snapshot), assembled and factorised on a worker thread,
-        which then applies every operation logged since (in order, as they come); the
-        current factor keeps serving until :meth:`finish_rebuild`."""
+        and ``nodes``, built from a snapshot), assembled and factorised on a worker thread
+        from the first :meth:`release_log` on, which then applies every operation logged
+        since (in order, as released); the current factor keeps serving until
+        :meth:`finish_rebuild`."""
         if self._worker is not None:
             raise RuntimeError("a background rebuild is already pending")
         self._worker = _Worker(assemble, list(hot), self.d, self.max_active_dims,
@@ -489,15 +504,22 @@ class IncrementalBlue:
         self._drop_worker = weakref.finalize(self, self._worker.drop)
         self._worker.start()
 
+    def release_log(self) -> None:
+        """Let the worker of a pending background rebuild start, or apply the operations
+        logged so far; call it when this thread has nothing to do for a while (after an
+        update), since the worker holds the GIL part of the time."""
+        if self._worker is not None:
+            self._worker.release()
+
     def rebuild_ready(self, timeout: float | None = 0.0) -> bool:
         """Whether the pending background rebuild is factorised and has applied every
-        operation logged so far, waiting for it at most ``timeout`` [s] of wall time (None:
-        until then; True when none is pending)."""
+        operation released so far (:meth:`release_log`), waiting for it at most
+        ``timeout`` [s] of wall time (None: until then; True when none is pending)."""
         return self._worker is None or self._worker.caught_up(timeout)
 
     def finish_rebuild(self) -> int:
-        """Wait until the background rebuild has applied every logged operation and take its
-        solver over (the result of a rebuild at the snapshot followed by the same
+        """Release every logged operation, wait until the background rebuild has applied
+        them and take its solver over (the result of a rebuild at the snapshot followed by the same
         operations, whatever the worker's timing); returns how many it applied."""
         worker = self._worker
         if worker is None:

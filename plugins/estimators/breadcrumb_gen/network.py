@@ -735,7 +735,11 @@ class GeneralizedElectricalNetwork:
         While a background refactorisation is pending the call counts towards its
         hand-over (which it does in the ``rebuild_lag``-th call, returning 0); in the
         others the stale edges are re-linearised in the system of the new factor instead
-        (see :meth:`_relinearise_pending`), so the Gauss-Newton steps go on there.
+        (see :meth:`_relinearise_pending`), so the Gauss-Newton steps go on there. The
+        call ends an update: the worker is let go on then with what the update logged
+        (:meth:`IncrementalBlue.release_log`); a hand-over counts as waited for when the
+        worker was behind on what it had before this update (the update's own operations
+        it applies while the hand-over waits for them).
         """
         tol = self.relinearize_sigma if tol_sigma is None else tol_sigma
         if self.rebuild_pending:
@@ -750,10 +754,14 @@ class GeneralizedElectricalNetwork:
                     self.finish_rebuild()
                     return 0
                 self.late_handovers += 1
-            return self._relinearise_pending(tol)
+            changed = self._relinearise_pending(tol)
+            self.solver.release_log()
+            return changed
         stale = self.stale_edges(tol)
         if stale:
             self.rebuild(tol)
+            if self.rebuild_pending:
+                self.solver.release_log()
         return stale
 
     def _relinearise_pending(self, tol_sigma: float) -> int:
