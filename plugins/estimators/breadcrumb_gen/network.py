@@ -149,9 +149,11 @@ class GeneralizedElectricalNetwork:
     the estimates stay those of the previous factorisation (:attr:`rebuild_pending`), and
     the hand-over happens in the ``rebuild_lag``-th :meth:`relinearize` call after it (one
     call per update), or at once when the dense active set grows past twice its bound;
-    meanwhile stale edges are re-linearised in the system of the new factor. The hand-over point depends only on
-    the calls, never on the worker's timing, so the same inputs give identical estimates
-    (the hand-over waits for a late worker); smaller systems are refactorised at once.
+    meanwhile stale edges are re-linearised in the system of the new factor (the worker
+    applies the operations of the updates meanwhile to it itself). The hand-over point
+    depends only on the calls, never on the worker's timing, so the same inputs give
+    identical estimates (the hand-over waits for a late worker); smaller systems are
+    refactorised at once.
     ``handover_wait`` [s] bounds that wait instead: a worker not done by then is handed
     over at a later call (:attr:`late_handovers`), which makes the estimates depend on
     the machine's timing.
