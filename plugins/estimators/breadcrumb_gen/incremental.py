@@ -29,10 +29,12 @@ hides it until the next rebuild, where the network passes the Schur-complemented
 A rebuild can also run *in the background* (:meth:`IncrementalBlue.start_rebuild`): the
 sparse factorisation of the assembled system runs on a worker thread (SuperLU and LAPACK
 release the GIL) while the current factor and active set keep serving every operation;
-those operations are logged, and :meth:`IncrementalBlue.finish_rebuild` installs the new
-factor and replays the log on it. The result is the same as a rebuild at the snapshot
-followed by the same operations, whatever the worker's timing: the caller chooses the
-hand-over point, so a replay of the same inputs gives identical numbers.
+those operations are logged, and the worker, once it has installed the new factor in a
+solver of its own, applies them to it as they arrive (it *catches up*), so that
+:meth:`IncrementalBlue.finish_rebuild` only waits for the last ones and swaps that solver
+in. The result is the same as a rebuild at the snapshot followed by the same operations,
+whatever the worker's timing: the caller chooses the hand-over point, so a replay of the
+same inputs gives identical numbers.
 
 Nodes are small integers (the network's node ids); ``d`` is the block size (3 in the
 paper: x, y, z).
@@ -40,8 +42,8 @@ paper: x, y, z).
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+import weakref
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -81,27 +83,102 @@ class Refactorisation:
 
 
 class _Worker(threading.Thread):
-    """Assembles and factorises one system off the caller's thread (errors kept for
-    :meth:`result`); ``assemble`` returns an object with ``L``, ``b`` and ``nodes``."""
+    """Assembles and factorises one system off the caller's thread, installs it in a solver
+    of its own and then *catches up*: applies the operations the caller logs meanwhile
+    (:meth:`push`), in their order, so that at the hand-over the caller only swaps that
+    solver in. It starts, and goes on, only with what the caller has :meth:`release` d
+    (between updates: its sparse solves and Python steps hold the GIL, which would
+    stretch an update it overlaps). ``assemble`` returns an object with ``L``, ``b`` and
+    ``nodes``; ``touch`` and ``clock`` are the caller's touch counters at the snapshot
+    (the order in which the next refactorisation's hot nodes are chosen), ``capacity``
+    the active-set dimensions to make room for (at least the caller's). Errors are
+    kept and re-raised on the caller's thread by :meth:`result`."""
 
-    def __init__(self, assemble: Callable[[], object], hot: list[int], dim: int) -> None:
+    def __init__(self, assemble: Callable[[], object], hot: list[int], dim: int,
+                 max_active_dims: int, touch: np.ndarray, clock: int, capacity: int) -> None:
         super().__init__(name="gen-refactorisation", daemon=True)
         self._assemble, self._hot, self._dim = assemble, hot, dim
-        self._out: Refactorisation | None = None
+        self._max_active_dims, self._touch, self._clock = max_active_dims, touch, clock
+        self._capacity = capacity
+        self._cond = threading.Condition()
+        self._ops: list[tuple[str, tuple]] = []      # logged by the caller
+        self._released = -1          # of them, how many the worker may apply (-1: not
+        self._applied = 0            # even the factorisation yet); applied so far
+        self._closed = False         # hand-over: apply what is logged, then stop
+        self._dropped = False        # the caller is gone: stop now
+        self._solver: IncrementalBlue | None = None
         self._error: BaseException | None = None
 
     def run(self) -> None:
         try:
+            with self._cond:
+                self._cond.wait_for(lambda: self._released >= 0 or self._dropped)
+            if self._dropped:
+                return
             system = self._assemble()
-            self._out = Refactorisation(system.L, system.b, system.nodes, self._hot, self._dim)
+            f = Refactorisation(system.L, system.b, system.nodes, self._hot, self._dim)
+            solver = IncrementalBlue(self._dim, max_active_dims=self._max_active_dims)
+            solver._grow_ids(len(self._touch))
+            solver._touch[:len(self._touch)] = self._touch
+            solver._clock = self._clock
+            solver.install(f)
+            solver.reserve(self._capacity)
+            with self._cond:
+                self._solver = solver
+                self._cond.notify_all()
+            while True:
+                with self._cond:
+                    self._cond.wait_for(lambda: self._closed or self._dropped
+                                        or self._applied < self._released)
+                    end = len(self._ops) if self._closed else self._released
+                    todo = [] if self._dropped else self._ops[self._applied:end]
+                if not todo:
+                    return
+                for op, args in todo:
+                    getattr(solver, op)(*args)
+                with self._cond:
+                    self._applied += len(todo)
+                    self._cond.notify_all()
         except BaseException as exc:  # re-raised on the caller's thread at the hand-over
-            self._error = exc
+            with self._cond:
+                self._error = exc
+                self._cond.notify_all()
 
-    def result(self) -> Refactorisation:
+    def push(self, op: str, args: tuple) -> None:
+        """Log one operation (a solver method name and its arguments) for the catch-up."""
+        with self._cond:
+            self._ops.append((op, args))
+
+    def release(self) -> None:
+        """Let the worker go on with everything logged so far (the factorisation first)."""
+        with self._cond:
+            self._released = len(self._ops)
+            self._cond.notify_all()
+
+    def drop(self) -> None:
+        """Stop without applying what is left (the caller's solver is gone)."""
+        with self._cond:
+            self._dropped = True
+            self._cond.notify_all()
+
+    def caught_up(self, timeout: float | None) -> bool:
+        """Whether the factorisation is done and every released operation applied, waiting
+        at most ``timeout`` [s] of wall time (None: until then)."""
+        with self._cond:
+            return self._cond.wait_for(
+                lambda: self._error is not None
+                or (self._solver is not None and self._applied >= self._released), timeout)
+
+    def result(self) -> tuple[IncrementalBlue, int]:
+        """The caught-up solver and how many logged operations it applied (waits)."""
+        with self._cond:
+            self._closed = True
+            self._released = max(self._released, 0)
+            self._cond.notify_all()
         self.join()
         if self._error is not None:
             raise self._error
-        return self._out
+        return self._solver, self._applied
 
 
 class IncrementalBlue:
@@ -129,9 +206,10 @@ class IncrementalBlue:
         self._clock = 0
         self.rebuilds = 0
         self.activated = 0
-        # a background rebuild: its worker and the operations done since its snapshot
+        # a background rebuild: its worker, which gets every operation logged, and what
+        # stops it should this solver be dropped before the hand-over
         self._worker: _Worker | None = None
-        self._log: list[tuple[str, tuple]] | None = None
+        self._drop_worker: weakref.finalize | None = None
 
     # -- bookkeeping ------------------------------------------------------------------
     def _grow_ids(self, n: int) -> None:
@@ -154,6 +232,15 @@ class IncrementalBlue:
         x = np.zeros(cap)
         x[:t] = self._x[:t]
         self._sig, self._x, self._cap = sig, x, cap
+
+    def reserve(self, dims: int) -> None:
+        """Room for an active set of ``dims`` dimensions, its memory written now (growing a
+        large dense covariance later, and the first writes to fresh pages, cost tens of
+        ms on whichever thread does them)."""
+        t = self.active_dims
+        self._grow_active(dims)
+        self._sig[t:] = 0.0
+        self._sig[:t, t:] = 0.0
 
     @property
     def active_dims(self) -> int:
@@ -318,21 +405,11 @@ class IncrementalBlue:
         self._hidden.add(node)
 
     def record(self, op: str, *args) -> None:
-        """Log an operation (a method name and its arguments) for the replay on the factor
-        of a pending background rebuild; nothing when none is pending."""
-        if self._log is not None:
-            self._log.append((op, args))
-
-    @contextmanager
-    def unlogged(self) -> Iterator[None]:
-        """Operations inside change the serving factor's estimate only: they are not
-        replayed on the factor of the pending background rebuild (the caller
-        :meth:`record` s what the replay needs instead)."""
-        log, self._log = self._log, None
-        try:
-            yield
-        finally:
-            self._log = log
+        """Log an operation (a method name and its arguments) for the worker of a pending
+        background rebuild, which applies it to the new factor; nothing when none is
+        pending."""
+        if self._worker is not None:
+            self._worker.push(op, args)
 
     def _touch_nodes(self, nodes: Sequence[int]) -> None:
         self._clock += 1
@@ -415,34 +492,47 @@ class IncrementalBlue:
 
     def start_rebuild(self, assemble: Callable[[], object], hot: Sequence[int] = ()) -> None:
         """:meth:`rebuild` of the system ``assemble()`` returns (an object with ``L``, ``b``
-        and ``nodes``, built from a snapshot), assembled and factorised on a worker thread;
-        the current factor keeps serving (and logging) every operation until
+        and ``nodes``, built from a snapshot), assembled and factorised on a worker thread
+        from the first :meth:`release_log` on, which then applies every operation logged
+        since (in order, as released); the current factor keeps serving until
         :meth:`finish_rebuild`."""
         if self._worker is not None:
             raise RuntimeError("a background rebuild is already pending")
-        self._worker = _Worker(assemble, list(hot), self.d)
-        self._log = []
+        self._worker = _Worker(assemble, list(hot), self.d, self.max_active_dims,
+                               self._touch.copy(), self._clock,
+                               max(self._cap, 2 * self.max_active_dims + 3 * self.d * 16))
+        self._drop_worker = weakref.finalize(self, self._worker.drop)
         self._worker.start()
 
-    def rebuild_ready(self, timeout: float = 0.0) -> bool:
-        """Whether the pending background factorisation is done, waiting for it at most
-        ``timeout`` [s] of wall time (True when none is pending)."""
-        if self._worker is None:
-            return True
-        self._worker.join(timeout)
-        return not self._worker.is_alive()
+    def release_log(self) -> None:
+        """Let the worker of a pending background rebuild start, or apply the operations
+        logged so far; call it when this thread has nothing to do for a while (after an
+        update), since the worker holds the GIL part of the time."""
+        if self._worker is not None:
+            self._worker.release()
+
+    def rebuild_ready(self, timeout: float | None = 0.0) -> bool:
+        """Whether the pending background rebuild is factorised and has applied every
+        operation released so far (:meth:`release_log`), waiting for it at most
+        ``timeout`` [s] of wall time (None: until then; True when none is pending)."""
+        return self._worker is None or self._worker.caught_up(timeout)
 
     def finish_rebuild(self) -> int:
-        """Wait for the background factorisation, install it and replay the operations
-        logged since its snapshot; returns how many were replayed."""
-        worker, log = self._worker, self._log
+        """Release every logged operation, wait until the background rebuild has applied
+        them and take its solver over (the result of a rebuild at the snapshot followed by the same
+        operations, whatever the worker's timing); returns how many it applied."""
+        worker = self._worker
         if worker is None:
             return 0
-        self._worker, self._log = None, None
-        self.install(worker.result())
-        for op, args in log:
-            getattr(self, op)(*args)
-        return len(log)
+        self._worker = None
+        self._drop_worker.detach()
+        solver, applied = worker.result()
+        for name in ("_lu", "_xf", "_fblock", "_cap", "_sig", "_x", "_slot", "_slot_node",
+                     "_hidden", "_old_slots", "_hinv", "_xf_old", "_touch", "_clock"):
+            setattr(self, name, getattr(solver, name))
+        self.rebuilds += 1
+        self.activated += solver.activated
+        return applied
 
     def install(self, f: Refactorisation) -> None:
         """Reset the estimate to a factorised system: factor, solution, hot nodes active."""

@@ -149,9 +149,11 @@ class GeneralizedElectricalNetwork:
     the estimates stay those of the previous factorisation (:attr:`rebuild_pending`), and
     the hand-over happens in the ``rebuild_lag``-th :meth:`relinearize` call after it (one
     call per update), or at once when the dense active set grows past twice its bound;
-    meanwhile stale edges are re-linearised in place. The hand-over point depends only on
-    the calls, never on the worker's timing, so the same inputs give identical estimates
-    (the hand-over waits for a late worker); smaller systems are refactorised at once.
+    meanwhile stale edges are re-linearised in the system of the new factor (the worker
+    applies the operations of the updates meanwhile to it itself). The hand-over point
+    depends only on the calls, never on the worker's timing, so the same inputs give
+    identical estimates (the hand-over waits for a late worker); smaller systems are
+    refactorised at once.
     ``handover_wait`` [s] bounds that wait instead: a worker not done by then is handed
     over at a later call (:attr:`late_handovers`), which makes the estimates depend on
     the machine's timing.
@@ -734,8 +736,12 @@ class GeneralizedElectricalNetwork:
 
         While a background refactorisation is pending the call counts towards its
         hand-over (which it does in the ``rebuild_lag``-th call, returning 0); in the
-        others the stale edges are re-linearised in place instead (see
-        :meth:`_relinearise_pending`), so the Gauss-Newton steps go on meanwhile.
+        others the stale edges are re-linearised in the system of the new factor instead
+        (see :meth:`_relinearise_pending`), so the Gauss-Newton steps go on there. The
+        call ends an update: the worker is let go on then with what the update logged
+        (:meth:`IncrementalBlue.release_log`); a hand-over counts as waited for when the
+        worker was behind on what it had before this update (the update's own operations
+        it applies while the hand-over waits for them).
         """
         tol = self.relinearize_sigma if tol_sigma is None else tol_sigma
         if self.rebuild_pending:
@@ -750,77 +756,69 @@ class GeneralizedElectricalNetwork:
                     self.finish_rebuild()
                     return 0
                 self.late_handovers += 1
-            return self._relinearise_pending(tol)
+            changed = self._relinearise_pending(tol)
+            self.solver.release_log()
+            return changed
         stale = self.stale_edges(tol)
         if stale:
             self.rebuild(tol)
+            if self.rebuild_pending:
+                self.solver.release_log()
         return stale
 
     def _relinearise_pending(self, tol_sigma: float) -> int:
         """Re-linearise, while a background rebuild is pending, the non-linear edges among
         active nodes (and anchors) whose linearisation error at the current estimates
-        exceeds ``tol_sigma`` sigmas, in the serving factor or in the tables the next
-        factor is built from; returns how many.
+        exceeds ``tol_sigma`` sigmas, in the system the next factor holds; returns how many.
 
-        Each one is a rank-2 update of the serving factor's active set: the old
-        linearisation removed (negative covariance) and the new one added, in one update
-        (exact), for the edges whose removal keeps its precision (:meth:`_swappable`; the
-        others wait for the next refactorisation). The serving factor may still hold the
-        linearisation from before the snapshot for edges the snapshot re-linearised
-        (:class:`_Behind`): it is updated from that point, the replay log from the
-        snapshot's, so that both end at the same system.
+        The worker applies each one to the new factor as one update (the old
+        linearisation removed with a negative covariance, the new one added) for the
+        edges whose removal keeps its precision (:meth:`_swappable`; the others wait for
+        the next refactorisation). The serving factor keeps its linearisation (updating
+        it too would cost a rank-r update of its whole active set per call, and the new
+        factor has the new one from the hand-over on): its points are kept in
+        :class:`_Behind`, so its estimates stay the exact BLUE of the system it holds.
         """
         known, est = self._known_estimates()
-        behind = self._behind
-        now, replay = [], []            # (kind, fid, old point, new point)
+        changes = []                    # (kind, fid, old point, new point)
         rng = self._rng
         cand = self._range_candidates(known)
         if len(cand):
-            li, lj = rng.li[cand].copy(), rng.lj[cand].copy()
-            hit, at = _Behind.lookup(behind.rng, cand)
-            li[hit], lj[hit] = behind.li[at], behind.lj[at]
             xi, xj = self._positions(est, rng.i[cand]), self._positions(est, rng.j[cand])
-            turned = (self._stale(cand, li, lj, xi, xj, tol_sigma)
-                      | self._stale(cand, rng.li[cand], rng.lj[cand], xi, xj, tol_sigma))
-            for k in np.flatnonzero(turned):
-                turned[k] = self._swappable(_RNG, int(cand[k]), (li[k], lj[k]))
+            turned = self._stale(cand, rng.li[cand], rng.lj[cand], xi, xj, tol_sigma)
             for k in np.flatnonzero(turned):
                 f = int(cand[k])
-                now.append((_RNG, f, (li[k], lj[k]), (xi[k], xj[k])))
-                replay.append((_RNG, f, (rng.li[f].copy(), rng.lj[f].copy()), (xi[k], xj[k])))
-            rng.li[cand[turned]], rng.lj[cand[turned]] = xi[turned], xj[turned]
-            moved = turned[hit]                 # the serving factor now has them too
-            behind.li[at[moved]], behind.lj[at[moved]] = xi[hit][moved], xj[hit][moved]
+                turned[k] = self._swappable(_RNG, f, (rng.li[f], rng.lj[f]))
+                if turned[k]:
+                    changes.append((_RNG, f, (rng.li[f].copy(), rng.lj[f].copy()),
+                                    (xi[k], xj[k])))
+            f = cand[turned]
+            self._behind.hold(_RNG, f, rng.li[f], rng.lj[f])
+            rng.li[f], rng.lj[f] = xi[turned], xj[turned]
         rot = self._rot
         cand = self._rotated_candidates(known)
         if len(cand):
-            lin = rot.lin[cand].copy()
-            hit, at = _Behind.lookup(behind.rot, cand)
-            lin[hit] = behind.lin[at]
             psi = self._positions(est, rot.h[cand])[:, 0]
-            turned = (self._rot_stale(cand, lin, psi, tol_sigma)
-                      | self._rot_stale(cand, rot.lin[cand], psi, tol_sigma))
-            for k in np.flatnonzero(turned):
-                turned[k] = self._swappable(_ROT, int(cand[k]), lin[k])
+            turned = self._rot_stale(cand, rot.lin[cand], psi, tol_sigma)
             for k in np.flatnonzero(turned):
                 f = int(cand[k])
-                now.append((_ROT, f, lin[k], psi[k]))
-                replay.append((_ROT, f, float(rot.lin[f]), psi[k]))
-            rot.lin[cand[turned]] = psi[turned]
-            behind.lin[at[turned[hit]]] = psi[hit][turned[hit]]
-        if not now:
+                turned[k] = self._swappable(_ROT, f, float(rot.lin[f]))
+                if turned[k]:
+                    changes.append((_ROT, f, float(rot.lin[f]), psi[k]))
+            f = cand[turned]
+            self._behind.hold(_ROT, f, rot.lin[f])
+            rot.lin[f] = psi[turned]
+        if not changes:
             return 0
-        with self.solver.unlogged():
-            self.solver.update(*self._swap(now))
-        self.solver.record("update", *self._swap(replay))
-        self.relinearised += len(now)
-        return len(now)
+        self.solver.record("update", *self._swap(changes))
+        self.relinearised += len(changes)
+        return len(changes)
 
     def _swappable(self, kind: int, fid: int, at) -> bool:
-        """Whether the serving factor's linearisation of an edge (at ``at``) can be removed
-        by a negative update without losing precision: the rest of the graph must know
-        the measured combination at least as well as the edge itself
-        (``J Sigma J^T <= R / 2``). Where the edge carries most of that information the
+        """Whether an edge's linearisation at ``at`` can be removed by a negative update
+        without losing precision: the rest of the graph must know the measured combination
+        at least as well as the edge itself (``J Sigma J^T <= R / 2``, judged on the
+        serving factor's covariance). Where the edge carries most of that information the
         removal would nearly cancel (the round-off turns covariances indefinite), so it
         waits for the next refactorisation."""
         nodes, J, R, _ = self._linear_form(kind, fid, at)
@@ -1172,9 +1170,10 @@ def _merged(items: list[tuple[list[int], np.ndarray, np.ndarray, np.ndarray]], d
 
 @dataclass
 class _Behind:
-    """The linearisation points the serving factor still holds for the edges a pending
-    background rebuild's snapshot re-linearised (sorted edge ids; ranges: the two nodes'
-    positions [m], rotated positions: the heading [rad])."""
+    """The linearisation points the serving factor still holds for the edges re-linearised
+    since a pending background rebuild's snapshot (by the snapshot or for the replay;
+    sorted edge ids; ranges: the two nodes' positions [m], rotated positions: the heading
+    [rad])."""
 
     rng: np.ndarray
     li: np.ndarray
@@ -1182,13 +1181,20 @@ class _Behind:
     rot: np.ndarray
     lin: np.ndarray
 
-    @staticmethod
-    def lookup(fids: np.ndarray, sel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(mask over ``sel``: in ``fids``; their positions in ``fids``)."""
-        k = np.searchsorted(fids, sel)
-        kc = np.minimum(k, max(len(fids) - 1, 0))
-        hit = (k < len(fids)) & (fids[kc] == sel) if len(fids) else np.zeros(len(sel), bool)
-        return hit, kc[hit]
+    def hold(self, kind: int, fids: np.ndarray, *points: np.ndarray) -> None:
+        """Keep the serving factor's points ``points`` (ranges: ``li``, ``lj``; rotated
+        positions: ``lin``) of edges ``fids`` about to be re-linearised, unless held
+        already (then the serving factor is further behind)."""
+        names = ("rng", "li", "lj") if kind == _RNG else ("rot", "lin")
+        have = getattr(self, names[0])
+        new = ~np.isin(fids, have)
+        if not new.any():
+            return
+        ids = np.concatenate([have, fids[new]])
+        order = np.argsort(ids, kind="stable")
+        setattr(self, names[0], ids[order])
+        for name, p in zip(names[1:], points):
+            setattr(self, name, np.concatenate([getattr(self, name), p[new]])[order])
 
 
 @dataclass
