@@ -62,7 +62,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 from bench_ins_real_data import (  # noqa: E402
-    MAIN, PREVIOUS, WALK_TUNING, data_dir, eval_trial, fit_count, integrity_errors,
+    AS_IT_WAS, MAIN, PREVIOUS, WALK_TUNING, data_dir, eval_trial, fit_count, integrity_errors,
     integrity_row, run, split, step_poses)
 from firenav_framework.simulator import simulate  # noqa: E402
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
@@ -320,9 +320,11 @@ def sim_integrity(params: ZuptInsParams, rec: Recording, own_cov_only: bool = Fa
 
 def report_integrity(seeds: range, gaits: list[str] | None = None) -> None:
     """``--integrity``: NEES, ellipse and protection-radius containment of the poses on
-    the simulated gaits, beside the covariance without the fast-gait errors and the
-    filter's own covariance alone (the same runs)."""
+    the simulated gaits, beside the covariance as it was (``AS_IT_WAS``), with the
+    odometry's drift rate, without the fast-gait errors and the filter's own covariance
+    alone (the same runs)."""
     params, no_fast = ZuptInsParams(), ZuptInsParams(**NO_FAST_GAIT)
+    as_it_was = ZuptInsParams(**AS_IT_WAS)
     odometry_drift = ZuptInsParams(**ODOMETRY_DRIFT)
     print(f"Simulated gaits, seeds {seeds.start}-{seeds.stop - 1} ({len(seeds)} runs a row)\n")
     print("| scenario | covariance | runs | poses | NEES x,y (median of the runs') | 95 % "
@@ -331,7 +333,7 @@ def report_integrity(seeds: range, gaits: list[str] | None = None) -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     for gait in gaits or SCENARIOS:
         recs = [record(gait, s) for s in seeds]
-        for p, own, label in ((params, False, "now"),
+        for p, own, label in ((params, False, "now"), (as_it_was, False, "as it was"),
                               (odometry_drift, False, "odometry's drift rate"),
                               (no_fast, False, "no fast gait"), (params, True, "filter's own")):
             integrity_row(f"{gait} | {label}", [sim_integrity(p, r, own) for r in recs])

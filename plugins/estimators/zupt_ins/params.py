@@ -256,13 +256,23 @@ class PoseIntegrity(IntegrityParams):
     long_swing_sigma: float = param(0.05, unit="1/s", ge=0, description="horizontal error "
                                     "of such a step, relative to its length, per second "
                                     "beyond long_swing (each axis)")
+    max_speed: float | None = param(5.0, unit="m/s", gt=0, description="a step faster than "
+                                    "this is lost (stances missed, integrated unaided): "
+                                    "horizontal error of its whole length (each axis); null: "
+                                    "off")
+    hold_peak: bool = param(True, description="without a fix the horizontal uncertainty "
+                            "does not shrink: the covariance is raised by a circle to the "
+                            "largest horizontal variance so far (the drift nodes' errors "
+                            "cancel on the way back along an out-and-back, a real unit's "
+                            "do not)")
 
     def uncertainty(self, errors: UnmodelledErrors) -> PoseUncertainty:
         """A fresh :class:`PoseUncertainty` with the odometry's ``errors``."""
         return PoseUncertainty(errors, self.scale_sigma, self.position_sigma, FastGaitErrors(
             speed_from=self.speed_from, speed_drift_sigma=self.speed_drift_sigma,
-            long_swing=self.long_swing, long_swing_sigma=self.long_swing_sigma),
-            drift_rate_sigma=self.drift_rate_sigma)
+            long_swing=self.long_swing, long_swing_sigma=self.long_swing_sigma,
+            max_speed=self.max_speed),
+            drift_rate_sigma=self.drift_rate_sigma, hold_peak=self.hold_peak)
 
 
 class Outputs(Params):

@@ -30,7 +30,15 @@ carries those errors in the INS frame, propagated step by step:
   linear model holds; the two parts are taken as independent;
 * a step whose swing ran longer than ``long_swing`` (zero-velocity updates missed:
   seconds of strapdown integration unaided) has a horizontal error growing with the
-  excess, in any direction (:class:`FastGaitErrors`).
+  excess, in any direction (:class:`FastGaitErrors`); a step faster than ``max_speed``
+  (no one on foot covers ground that fast: the INS has lost its stances and integrates
+  unaided) has a horizontal error of its whole length on either axis;
+* without a fix the horizontal uncertainty does not shrink (``hold_peak``): the
+  drift-rate nodes make the position error a fixed function of one rate, so on the way
+  back along an out-and-back path their offsets cancel and the covariance shrinks to
+  the scale and floor terms alone, while the error of a real unit, whose drift is not
+  exactly one rate from the start, does not cancel; so the published horizontal
+  covariance is raised by a circle to the largest horizontal variance it has had.
 
 :meth:`PoseUncertainty.step` returns the pose covariance (4, 4) over (x, y, z, heading):
 the filter's ``cov_abs`` plus the unmodelled part, the two taken as independent, plus a
@@ -71,6 +79,15 @@ class FastGaitErrors:
     speed_drift_sigma: float = 0.0   # [rad/s per m/s] spread of that drift rate
     long_swing: float = 2.0          # [s] steps lasting longer missed zero-velocity updates
     long_swing_sigma: float = 0.0    # [1/s] relative horizontal error per second beyond it
+    max_speed: float | None = None   # [m/s] faster steps are lost: error of their length
+
+    def lost_variance(self, step: Step, duration: float) -> float:
+        """Variance [m^2] per horizontal axis of a step faster than ``max_speed``: its
+        squared length (0 for a plausible step)."""
+        length2 = float(step.delta[:2] @ step.delta[:2])
+        if self.max_speed is None or length2 <= (self.max_speed * duration) ** 2:
+            return 0.0
+        return length2
 
     def excess_speed(self, step: Step, duration: float) -> float:
         """How far [m/s] the step's horizontal speed lies above ``speed_from``."""
@@ -90,12 +107,13 @@ class PoseUncertainty:
 
     def __init__(self, errors: UnmodelledErrors, scale_sigma: float,
                  position_sigma: float, fast: FastGaitErrors | None = None,
-                 drift_rate_sigma: float | None = None) -> None:
+                 drift_rate_sigma: float | None = None, hold_peak: bool = False) -> None:
         """``errors``: the odometry's (step-to-step parts and the lasting drift rate's
         spread); ``scale_sigma`` [-]: of the step-length scale; ``position_sigma`` [m]:
         the horizontal floor; ``fast``: the fast gaits' errors (default: none);
         ``drift_rate_sigma`` [rad/s]: the lasting drift rate's spread the poses count
-        (default: the odometry's ``errors.yaw_drift_rate_sigma``)."""
+        (default: the odometry's ``errors.yaw_drift_rate_sigma``); ``hold_peak``: the
+        horizontal covariance never falls below the largest horizontal variance so far."""
         self.errors = errors
         self.fast = fast or FastGaitErrors()
         self.cov = np.zeros((5, 5))
@@ -111,6 +129,8 @@ class PoseUncertainty:
         self.offset = np.zeros((len(self.weight), 2))    # [m] each node's position error
         self.floor = np.diag([position_sigma ** 2, position_sigma ** 2, 0.0, 0.0])
         self.last = self.floor.copy()
+        self.hold_peak = hold_peak
+        self.peak = 0.0                                  # [m^2] largest horizontal variance
 
     def step(self, step: Step) -> np.ndarray:
         """Propagate over one step; the pose covariance (4, 4) at its end, INS frame."""
@@ -121,7 +141,8 @@ class PoseUncertainty:
         f[0, _SCALE], f[1, _SCALE] = dx, dy
         self.cov = f @ self.cov @ f.T
         self.cov[:4, :4] += self.errors.inflate(np.zeros((4, 4)), step.delta, duration)
-        swing = self.fast.long_swing_variance(step, duration)
+        swing = (self.fast.long_swing_variance(step, duration)
+                 + self.fast.lost_variance(step, duration))
         self.cov[0, 0] += swing
         self.cov[1, 1] += swing
         c, s = np.cos(self.heading) - 1.0, np.sin(self.heading)
@@ -134,4 +155,9 @@ class PoseUncertainty:
         m = (e * self.weight[:, None]).T @ e
         drift[np.ix_([0, 1, 3], [0, 1, 3])] = m
         self.last = self.cov[:4, :4] + drift + self.floor
+        if self.hold_peak:
+            largest = float(np.linalg.eigvalsh((step.cov_abs + self.last)[:2, :2])[-1])
+            self.peak = max(self.peak, largest)
+            self.last[0, 0] += self.peak - largest
+            self.last[1, 1] += self.peak - largest
         return step.cov_abs + self.last
