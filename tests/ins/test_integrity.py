@@ -151,6 +151,19 @@ def test_the_poses_own_drift_spread_leaves_the_odometry_byte_identical():
                                                            rel=0.05)
 
 
+def test_holding_the_peak_and_the_lost_step_term_leave_the_odometry_byte_identical():
+    """integrity.hold_peak and integrity.max_speed act on the poses only: every odometry
+    message is the same to the byte with them off, and no pose's horizontal covariance
+    is smaller with them on."""
+    on = run_component(ZuptInsEstimator, {}, blocks())
+    off = run_component(ZuptInsEstimator, {"integrity": {"hold_peak": False,
+                                                         "max_speed": None}}, blocks())
+    a, b = on.on("odometry"), off.on("odometry")
+    assert a and [_fields(m) for m in a] == [_fields(m) for m in b]
+    for held, plain in zip(on.on("pose"), off.on("pose")):
+        assert np.all(np.linalg.eigvalsh(held.cov[:2, :2] - plain.cov[:2, :2]) >= -1e-12)
+
+
 def _walk_errors(shared_data: Path, params: ZuptInsParams, own_cov_only: bool):
     sys.path.insert(0, str(REPO / "benchmarks"))
     from bench_ins_real_data import walk_integrity
