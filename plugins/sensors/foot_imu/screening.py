@@ -102,7 +102,6 @@ def screen(time: np.ndarray, accel: np.ndarray, gyro: np.ndarray, limits: Screen
     ``time`` (N,) [s], ``accel`` (N, 3) [m/s^2], ``gyro`` (N, 3) [rad/s] in arrival
     order; ``flags`` (N,) uint8 flags already set upstream (kept and extended).
     """
-    n = len(time)
     values = np.hstack((accel, gyro))
     if _clean(time, values, history.last_t, limits.accel_range, limits.gyro_range,
               limits.gap, limits.accel_saturation or np.inf, limits.gyro_saturation or np.inf):
