@@ -63,8 +63,8 @@ class MyRangeLineCodec(Codec):
 
     class Options(Params):
         # TODO: the protocol's settings.
-        max_range: float = param(300.0, unit="m", gt=0, description="longer ranges are "
-                                 "not this protocol's (a corrupt line)")
+        max_range: float = param(300.0, unit="m", gt=0)
+        """longer ranges are not this protocol's (a corrupt line)"""
 
     def decode(self, frame: RawFrame) -> list[RangeReport] | None:
         # TODO: your protocol. None: not ours; FrameError: ours but broken.

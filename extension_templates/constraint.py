@@ -41,10 +41,10 @@ class MyConstraint(ParticleConstraint):
 
     class Params(Params):
         # TODO: your parameters, with units and descriptions.
-        max_speed: float = param(2.5, unit="m/s", gt=0, description="fastest a firefighter "
-                                 "moves inside a building")
-        sigma: float = param(0.5, unit="m/s", gt=0, description="how sharply faster "
-                             "particles lose weight (1 sigma of the excess speed)")
+        max_speed: float = param(2.5, unit="m/s", gt=0)
+        """fastest a firefighter moves inside a building"""
+        sigma: float = param(0.5, unit="m/s", gt=0)
+        """how sharply faster particles lose weight (1 sigma of the excess speed)"""
 
     def log_likelihood(self, step: ParticleStep) -> np.ndarray | None:
         # TODO: your rule. (N,) log-weight increments for step.particles, or None.

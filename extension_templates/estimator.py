@@ -64,10 +64,10 @@ class MyEstimator(Estimator):
 
     class Params(Params):
         # TODO: your parameters (nested Params models for groups: `start` is one).
-        start: StartPose = param(StartPose(mode="unknown"), description="where each "
-                                 "firefighter starts (modes 'pose' and 'unknown' here)")
-        drift_per_m: float = param(0.05, unit="m/m", ge=0, description="position error "
-                                   "(1 sigma) added per metre walked")
+        start: StartPose = param(StartPose(mode="unknown"))
+        """where each firefighter starts (modes 'pose' and 'unknown' here)"""
+        drift_per_m: float = param(0.05, unit="m/m", ge=0)
+        """position error (1 sigma) added per metre walked"""
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)

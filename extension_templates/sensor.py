@@ -57,10 +57,10 @@ class MyRangeSensor(Sensor):
         # TODO: every parameter: a default, an SI unit where it is a quantity, a
         # description (they are the YAML schema and the `firenav plugins show` table).
         # Angles are declared `Angle` / `AngularRate` (radians; YAML may say "5 deg").
-        offset: float = param(0.0, unit="m", description="bias of the radio, subtracted "
-                              "from every range")
-        max_range: float = param(100.0, unit="m", gt=0, description="longer ranges are "
-                                 "impossible for this radio and dropped (counted)")
+        offset: float = param(0.0, unit="m")
+        """bias of the radio, subtracted from every range"""
+        max_range: float = param(100.0, unit="m", gt=0)
+        """longer ranges are impossible for this radio and dropped (counted)"""
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)

@@ -36,9 +36,10 @@ class MySink(FileSink):
 
     class Params(Params):
         # TODO: your parameters.
-        file: str = param("poses.csv", description="file name, in the run's output folder")
-        digits: int = param(3, ge=0, le=9, description="decimals of positions [m] and "
-                            "headings [rad]")
+        file: str = param("poses.csv")
+        """file name, in the run's output folder"""
+        digits: int = param(3, ge=0, le=9)
+        """decimals of positions [m] and headings [rad]"""
 
     def start(self) -> None:
         self._out = self.out_path(self.params.file).open("w", encoding="utf-8")

@@ -46,8 +46,8 @@ class MySource(Source):
 
     class Params(Params):
         # TODO: your parameters.
-        path: str = param(description="checkpoint file (t,agent,x,y,z per line; # comments), "
-                          "relative to the pipeline file")
+        path: str = param()
+        """checkpoint file (t,agent,x,y,z per line; # comments), relative to the pipeline file"""
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)

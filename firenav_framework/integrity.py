@@ -38,10 +38,10 @@ DEFAULT_ALERT_LIMIT = 3.0
 class IntegrityParams(Params):
     """When a pose is trusted: the estimator-side half of the integrity promise."""
 
-    alert_limit: float = param(DEFAULT_ALERT_LIMIT, unit="m", gt=0, description="a pose "
-                               "whose protection radius exceeds this is not trusted")
-    containment: float = param(DEFAULT_CONTAINMENT, gt=0.5, lt=1.0, description="probability "
-                               "that the horizontal error is within the protection radius")
+    alert_limit: float = param(DEFAULT_ALERT_LIMIT, unit="m", gt=0)
+    """a pose whose protection radius exceeds this is not trusted"""
+    containment: float = param(DEFAULT_CONTAINMENT, gt=0.5, lt=1.0)
+    """probability that the horizontal error is within the protection radius"""
 
 
 def gaussian_protection_radius(cov_xy: np.ndarray,

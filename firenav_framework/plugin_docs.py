@@ -108,7 +108,7 @@ def param_rows(model: type[BaseModel], prefix: str = "",
         else:
             value = f.get_default(call_default_factory=True)
             default = _show(value, unit)
-        meaning = f.description or ""
+        meaning = " ".join((f.description or "").split())
         if bounds:
             meaning += f" [{', '.join(bounds)}]"
         group = nested_model(f.annotation)

@@ -89,9 +89,9 @@ class DbcCodec(Codec):
     dbc_doc: ClassVar[str] = ""
 
     class Options(Codec.Options):
-        dbc: str | None = param(None, description="DBC file of the layout, relative to "
-                                "the pipeline file (default: the layout shipped with the "
-                                "codec)")
+        dbc: str | None = param(None)
+        """DBC file of the layout, relative to the pipeline file (default: the layout shipped with
+        the codec)"""
 
     def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)

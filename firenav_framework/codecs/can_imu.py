@@ -57,8 +57,8 @@ class CanImuCodec(DbcCodec):
     dbc_doc = "docs/formats/can-imu.md"
 
     class Options(DbcCodec.Options):
-        temperature: float = param(25.0, unit="degC", ge=-128, le=127,
-                                   description="sensor temperature sent in GYRO frames")
+        temperature: float = param(25.0, unit="degC", ge=-128, le=127)
+        """sensor temperature sent in GYRO frames"""
 
     def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)

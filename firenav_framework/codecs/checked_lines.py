@@ -29,7 +29,8 @@ NAME = re.compile(r"^[A-Za-z0-9_.:/-]+$")
 class CheckedLineOptions(Codec.Options):
     """Options of a checked-line codec."""
 
-    checksum: bool = param(True, description="encoding appends the *HH checksum")
+    checksum: bool = param(True)
+    """encoding appends the *HH checksum"""
 
 
 def checksum(body: bytes) -> int:

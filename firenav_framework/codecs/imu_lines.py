@@ -32,12 +32,12 @@ class ImuLinesCodec(Codec):
     record = ImuSample
 
     class Options(Codec.Options):
-        accel_unit: Literal["m/s^2", "g"] = param("m/s^2", description="accel units "
-                                                  "of the lines")
-        gyro_unit: Literal["rad/s", "deg/s"] = param("rad/s", description="gyro units "
-                                                     "of the lines")
-        mag_unit: Literal["uT", "gauss", "nT"] = param("uT", description="magnetometer "
-                                                       "units of the lines")
+        accel_unit: Literal["m/s^2", "g"] = param("m/s^2")
+        """accel units of the lines"""
+        gyro_unit: Literal["rad/s", "deg/s"] = param("rad/s")
+        """gyro units of the lines"""
+        mag_unit: Literal["uT", "gauss", "nT"] = param("uT")
+        """magnetometer units of the lines"""
 
     def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)

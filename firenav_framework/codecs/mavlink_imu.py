@@ -81,17 +81,17 @@ class MavlinkImuCodec(Codec):
     record = ImuSample
 
     class Options(Codec.Options):
-        messages: list[Message] = param(
-            ["HIGHRES_IMU", "SCALED_IMU", "RAW_IMU"], min_length=1,
-            description="MAVLink messages decoded (SCALED_IMU includes SCALED_IMU2 and 3); "
-            "list one if a device sends the same IMU as several")
-        send: Message = param("HIGHRES_IMU", description="the message encoding sends")
-        raw_accel_scale: float | None = param(None, unit="m/s^2", gt=0,
-                                              description="RAW_IMU accel units per count")
-        raw_gyro_scale: float | None = param(None, unit="rad/s", gt=0,
-                                             description="RAW_IMU gyro units per count")
-        raw_mag_scale: float | None = param(None, unit="uT", gt=0,
-                                            description="RAW_IMU magnetometer units per count")
+        messages: list[Message] = param(["HIGHRES_IMU", "SCALED_IMU", "RAW_IMU"], min_length=1)
+        """MAVLink messages decoded (SCALED_IMU includes SCALED_IMU2 and 3); list one if a device
+        sends the same IMU as several"""
+        send: Message = param("HIGHRES_IMU")
+        """the message encoding sends"""
+        raw_accel_scale: float | None = param(None, unit="m/s^2", gt=0)
+        """RAW_IMU accel units per count"""
+        raw_gyro_scale: float | None = param(None, unit="rad/s", gt=0)
+        """RAW_IMU gyro units per count"""
+        raw_mag_scale: float | None = param(None, unit="uT", gt=0)
+        """RAW_IMU magnetometer units per count"""
 
     def __init__(self, options: Params | dict[str, Any] | None = None, **kw: Any):
         super().__init__(options, **kw)

@@ -39,11 +39,11 @@ class CodecSelection(Params):
     #: The record type the sensor reads; every chosen codec must decode it (or a subclass).
     record: ClassVar[type] = object
 
-    codecs: dict[str, str] = param({}, description="link transport (RawFrame.transport: "
-                                   "can, mavlink, serial, udp ...) -> registered codec name; "
-                                   "frames of other transports are not decoded")
-    codec_options: dict[str, dict[str, Any]] = param({}, description="codec name -> its "
-                                                     "options (docs/formats/codecs.md)")
+    codecs: dict[str, str] = param({})
+    """link transport (RawFrame.transport: can, mavlink, serial, udp ...) -> registered codec name;
+    frames of other transports are not decoded"""
+    codec_options: dict[str, dict[str, Any]] = param({})
+    """codec name -> its options (docs/formats/codecs.md)"""
 
     @field_validator("codecs")
     @classmethod

@@ -26,7 +26,8 @@ class Params(BaseModel):
     """Base for plugin parameter models: unknown keys are errors, values are checked,
     and no value is NaN."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True,
+                              use_attribute_docstrings=True)
 
     @field_validator("*", mode="after")
     @classmethod
@@ -46,12 +47,16 @@ def _has_nan(value: Any) -> bool:
     return False
 
 
-def param(default: Any = ..., *, unit: str | None = None, description: str = "",
+def param(default: Any = ..., *, unit: str | None = None, description: str | None = None,
           **constraints: Any) -> Any:
     """A pydantic ``Field`` that also records the physical unit of a parameter.
 
+    The description is the attribute's docstring (the string right below it), or
+    ``description=`` where there is none:
+
     >>> class P(Params):
-    ...     range_m: float = param(5.0, unit="m", description="read range", gt=0)
+    ...     read_range: float = param(5.0, unit="m", gt=0)
+    ...     '''how far a tag is read'''
     """
     extra = {"unit": unit} if unit else None
     return Field(default, description=description, json_schema_extra=extra, **constraints)
@@ -90,9 +95,10 @@ Vec3 = tuple[_Finite, _Finite, _Finite]
 class AgentPose(Params):
     """A known pose of one firefighter: position (x, y, z) [m] and heading [rad], ENU."""
 
-    position: Vec3 = param(unit="m", description="position (x, y, z), building frame")
-    heading: Angle | None = param(None, unit="rad", description="walking direction, "
-                                  "counter-clockwise from east (None: unknown)")
+    position: Vec3 = param(unit="m")
+    """position (x, y, z), building frame"""
+    heading: Angle | None = param(None, unit="rad")
+    """walking direction, counter-clockwise from east (None: unknown)"""
 
 
 class StartPose(Params):
@@ -112,22 +118,22 @@ class StartPose(Params):
     the start given by ``entrance``, ``pose`` or ``truth``.
     """
 
-    mode: Literal["entrance", "pose", "truth", "unknown"] = param(
-        "entrance", description="where the start comes from: entrance | pose | truth | unknown")
-    entrance: str | None = param(None, description="entrance id for mode 'entrance' "
-                                 "(default: the building's first entrance)")
-    position: Vec3 | None = param(None, unit="m", description="mode 'pose': start position "
-                                  "(x, y, z), building frame")
-    heading: Angle | None = param(None, unit="rad", description="mode 'pose': start walking "
-                                  "direction, counter-clockwise from east")
-    floor: int | None = param(None, ge=0, description="start floor index (default: from "
-                              "the position's height, else 0)")
-    agents: dict[str, AgentPose] = param({}, description="mode 'pose': per-firefighter "
-                                         "poses overriding position/heading")
-    sigma_position: float = param(0.3, unit="m", ge=0, description="start position "
-                                  "uncertainty (1 sigma, per horizontal axis)")
-    sigma_heading: Angle = param(0.05, unit="rad", ge=0, description="start heading "
-                                 "uncertainty (1 sigma)")
+    mode: Literal["entrance", "pose", "truth", "unknown"] = param("entrance")
+    """where the start comes from: entrance | pose | truth | unknown"""
+    entrance: str | None = param(None)
+    """entrance id for mode 'entrance' (default: the building's first entrance)"""
+    position: Vec3 | None = param(None, unit="m")
+    """mode 'pose': start position (x, y, z), building frame"""
+    heading: Angle | None = param(None, unit="rad")
+    """mode 'pose': start walking direction, counter-clockwise from east"""
+    floor: int | None = param(None, ge=0)
+    """start floor index (default: from the position's height, else 0)"""
+    agents: dict[str, AgentPose] = param({})
+    """mode 'pose': per-firefighter poses overriding position/heading"""
+    sigma_position: float = param(0.3, unit="m", ge=0)
+    """start position uncertainty (1 sigma, per horizontal axis)"""
+    sigma_heading: Angle = param(0.05, unit="rad", ge=0)
+    """start heading uncertainty (1 sigma)"""
 
     def pose_of(self, agent: str) -> tuple[Vec3 | None, float | None]:
         """(position, heading) given for ``agent`` in mode ``pose`` (None where not given)."""

@@ -61,35 +61,36 @@ class CsvColumns(Params):
     keys come from the public format the header shows (or from the sidecar), else the
     defaults named here; :meth:`over` checks the result."""
 
-    time: Column | None = param(None, description="column of the time or sample index "
-                                "(name, or 0-based index); unset: the row number")
-    time_unit: TimeUnit | None = param(None, description="unit of the time column: s "
-                                       "(default), ms, us, ns, or sample (an index: time "
-                                       "= index / rate)")
-    rate: float | None = param(None, unit="Hz", gt=0, description="sample rate, for "
-                               "sample-index time or no time column")
-    accel: tuple[Column, Column, Column] | None = param(None, description="specific force "
-                                                        "x, y, z columns")
-    gyro: tuple[Column, Column, Column] | None = param(None, description="angular rate x, "
-                                                       "y, z columns")
-    mag: tuple[Column, Column, Column] | None = param(None, description="magnetic field x, "
-                                                      "y, z columns (optional)")
-    accel_unit: Literal["m/s^2", "g"] | None = param(None, description="m/s^2 (default) or g")
-    gyro_unit: Literal["rad/s", "deg/s"] | None = param(None, description="rad/s (default) "
-                                                        "or deg/s")
-    mag_unit: Literal["uT", "gauss", "nT"] | None = param(None, description="uT (default), "
-                                                         "gauss or nT")
-    frame: Literal["device", "FLU"] | None = param(None, description="axes of the columns: "
-                                                   "device (default) or FLU")
-    devices: list[str] | None = param(None, min_length=1, description="several IMUs in one "
-                                      "file: their names, put for '{device}' in the column "
-                                      "names (device id '<agent>/<name>')")
-    delimiter: str | None = param(None, description="field separator (default ','); "
-                                  "'whitespace' for any run of spaces and tabs")
-    header_rows: int | None = param(None, ge=0, le=10, description="lines of column names "
-                                    "(default 1; several are joined per column with '/'); "
-                                    "0: columns are 0-based indices")
-    skip_rows: int | None = param(None, ge=0, description="lines before the header (default 0)")
+    time: Column | None = param(None)
+    """column of the time or sample index (name, or 0-based index); unset: the row number"""
+    time_unit: TimeUnit | None = param(None)
+    """unit of the time column: s (default), ms, us, ns, or sample (an index: time = index / rate)"""
+    rate: float | None = param(None, unit="Hz", gt=0)
+    """sample rate, for sample-index time or no time column"""
+    accel: tuple[Column, Column, Column] | None = param(None)
+    """specific force x, y, z columns"""
+    gyro: tuple[Column, Column, Column] | None = param(None)
+    """angular rate x, y, z columns"""
+    mag: tuple[Column, Column, Column] | None = param(None)
+    """magnetic field x, y, z columns (optional)"""
+    accel_unit: Literal["m/s^2", "g"] | None = param(None)
+    """m/s^2 (default) or g"""
+    gyro_unit: Literal["rad/s", "deg/s"] | None = param(None)
+    """rad/s (default) or deg/s"""
+    mag_unit: Literal["uT", "gauss", "nT"] | None = param(None)
+    """uT (default), gauss or nT"""
+    frame: Literal["device", "FLU"] | None = param(None)
+    """axes of the columns: device (default) or FLU"""
+    devices: list[str] | None = param(None, min_length=1)
+    """several IMUs in one file: their names, put for '{device}' in the column names (device id
+    '<agent>/<name>')"""
+    delimiter: str | None = param(None)
+    """field separator (default ','); 'whitespace' for any run of spaces and tabs"""
+    header_rows: int | None = param(None, ge=0, le=10)
+    """lines of column names (default 1; several are joined per column with '/'); 0: columns are
+    0-based indices"""
+    skip_rows: int | None = param(None, ge=0)
+    """lines before the header (default 0)"""
 
     @field_validator("delimiter")
     @classmethod

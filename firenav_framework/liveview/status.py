@@ -47,14 +47,14 @@ class StatusParams(Params):
     """When a firefighter is in alarm: the parameters every sink that shows the
     status shares (``live_view``, ``mavlink_out``)."""
 
-    stale_after: float = param(10.0, unit="s", gt=0, description="no pose for this long "
-                               "draws the track as stale")
-    man_down_after: float = param(30.0, unit="s", gt=0, description="no motion for this "
-                                  "long raises the man-down alarm (NFPA 1982 PASS: 30 s)")
-    still_radius: float = param(0.5, unit="m", gt=0, description="moving less than this "
-                                "counts as no motion")
-    untrusted_after: float = param(5.0, unit="s", ge=0, description="poses untrusted for "
-                                   "this long raise the untrusted-position alarm")
+    stale_after: float = param(10.0, unit="s", gt=0)
+    """no pose for this long draws the track as stale"""
+    man_down_after: float = param(30.0, unit="s", gt=0)
+    """no motion for this long raises the man-down alarm (NFPA 1982 PASS: 30 s)"""
+    still_radius: float = param(0.5, unit="m", gt=0)
+    """moving less than this counts as no motion"""
+    untrusted_after: float = param(5.0, unit="s", ge=0)
+    """poses untrusted for this long raise the untrusted-position alarm"""
 
 
 @dataclass

@@ -26,9 +26,11 @@ class DiagnosticsLogSink(FileSink):
     inputs = (Diagnostic,)
 
     class Params(Params):
-        file: OutputName = param("diagnostics.jsonl", description="file name under the output folder")
-        wall_clock: bool = param(True, description="add the wall-clock time each line was "
-                                 "written ('wall'); off: the file depends on the data only")
+        file: OutputName = param("diagnostics.jsonl")
+        """file name under the output folder"""
+        wall_clock: bool = param(True)
+        """add the wall-clock time each line was written ('wall'); off: the file depends on the
+        data only"""
 
     def start(self) -> None:
         self._fh = None

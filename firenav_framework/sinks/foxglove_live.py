@@ -28,14 +28,14 @@ class FoxgloveLiveSink(Sink):
     inputs = (Message,)
 
     class Params(Params):
-        host: str = param("127.0.0.1", description="address to listen on (loopback: the "
-                          "server has no login)")
-        port: int = param(8766, ge=0, le=65535, description="TCP port (0: any free port; "
-                          "8765 is the live view's)")
-        backlog: int = param(1024, gt=0, description="messages queued per client before the "
-                             "oldest are dropped")
-        plan_every: float = param(10.0, unit="s", gt=0, description="send the walls again "
-                                  "this often (data time), for clients that join later")
+        host: str = param("127.0.0.1")
+        """address to listen on (loopback: the server has no login)"""
+        port: int = param(8766, ge=0, le=65535)
+        """TCP port (0: any free port; 8765 is the live view's)"""
+        backlog: int = param(1024, gt=0)
+        """messages queued per client before the oldest are dropped"""
+        plan_every: float = param(10.0, unit="s", gt=0)
+        """send the walls again this often (data time), for clients that join later"""
 
     def start(self) -> None:
         import foxglove

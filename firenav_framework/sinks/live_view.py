@@ -50,20 +50,21 @@ class LiveViewSink(Sink):
     inputs = (PoseEstimate, Diagnostic)
 
     class Params(StatusParams):
-        host: str = param("127.0.0.1", description="address to serve on (localhost by "
-                          "default; on a network set a token and allowed_hosts)")
-        port: int = param(8765, ge=0, le=65535, description="TCP port (0: any free port)")
-        allowed_hosts: list[str] = param([], description="host names the page may be "
-                                         "reached by besides the loopback names and the "
-                                         "listening address (DNS rebinding protection)")
+        host: str = param("127.0.0.1")
+        """address to serve on (localhost by default; on a network set a token and allowed_hosts)"""
+        port: int = param(8765, ge=0, le=65535)
+        """TCP port (0: any free port)"""
+        allowed_hosts: list[str] = param([])
+        """host names the page may be reached by besides the loopback names and the listening
+        address (DNS rebinding protection)"""
         token: str = param("", description="login token the page needs (also from the "
                            f"environment variable {TOKEN_ENV}); empty: no login")
-        push_period: float = param(0.25, unit="s", gt=0, description="at most one browser "
-                                   "update this often")
-        max_points: int = param(20000, gt=0, description="track points kept per "
-                                "firefighter (whole chunks of 1000)")
-        wait_bound: float = param(0.05, unit="s", gt=0, description="a message that keeps "
-                                  "the pipeline in this sink longer is counted")
+        push_period: float = param(0.25, unit="s", gt=0)
+        """at most one browser update this often"""
+        max_points: int = param(20000, gt=0)
+        """track points kept per firefighter (whole chunks of 1000)"""
+        wait_bound: float = param(0.05, unit="s", gt=0)
+        """a message that keeps the pipeline in this sink longer is counted"""
 
     @classmethod
     def tick_period(cls, params: Params) -> float:

@@ -84,18 +84,20 @@ class MavlinkOutSink(Sink):
     inputs = (PoseEstimate, Diagnostic)
 
     class Params(StatusParams):
-        url: str = param("udpout:127.0.0.1:14550", description="pymavlink connection "
-                         "string of the ground station (udpout:HOST:PORT, tcp:HOST:PORT, ...)")
-        system_ids: dict[str, int] = param({}, description="firefighter id -> MAVLink system "
-                                           "id; others get free ids from first_system_id on")
-        first_system_id: int = param(1, ge=1, le=254, description="first id handed out "
-                                     "automatically, in order of first appearance")
-        component_id: int = param(1, ge=0, le=255, description="component id of the messages")
-        odometry: bool = param(True, description="also send ODOMETRY with the covariance")
+        url: str = param("udpout:127.0.0.1:14550")
+        """pymavlink connection string of the ground station (udpout:HOST:PORT, tcp:HOST:PORT, ...)"""
+        system_ids: dict[str, int] = param({})
+        """firefighter id -> MAVLink system id; others get free ids from first_system_id on"""
+        first_system_id: int = param(1, ge=1, le=254)
+        """first id handed out automatically, in order of first appearance"""
+        component_id: int = param(1, ge=0, le=255)
+        """component id of the messages"""
+        odometry: bool = param(True)
+        """also send ODOMETRY with the covariance"""
         vehicle_type: Literal["ground_rover", "generic", "surface_boat", "quadrotor"] = param(
             "ground_rover", description="HEARTBEAT type the GCS shows each firefighter as")
-        origin_every: int = param(10, ge=1, description="send GPS_GLOBAL_ORIGIN every this "
-                                  "many heartbeats (georeferenced plans)")
+        origin_every: int = param(10, ge=1)
+        """send GPS_GLOBAL_ORIGIN every this many heartbeats (georeferenced plans)"""
 
     @classmethod
     def tick_period(cls, params) -> float:

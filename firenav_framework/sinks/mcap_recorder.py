@@ -33,15 +33,16 @@ class McapRecorderSink(FileSink):
     inputs = (Message,)
 
     class Params(Params):
-        file: OutputName = param("fused.mcap", description="file name under the output folder")
-        compression: typing.Literal["zstd", "lz4", "none"] = param(
-            "zstd", description="chunk compression")
-        chunk_kb: int = param(64, gt=0, le=65536, unit="KiB", description="chunk size: a crash can "
-                              "lose at most the chunk being filled")
-        flush_s: float = param(0.5, gt=0, unit="s", description="flush to the operating "
-                               "system at least this often (wall time)")
-        wall_clock: bool = param(True, description="incident-log entries carry the "
-                                 "wall-clock time they were written ('wall')")
+        file: OutputName = param("fused.mcap")
+        """file name under the output folder"""
+        compression: typing.Literal["zstd", "lz4", "none"] = param("zstd")
+        """chunk compression"""
+        chunk_kb: int = param(64, gt=0, le=65536, unit="KiB")
+        """chunk size: a crash can lose at most the chunk being filled"""
+        flush_s: float = param(0.5, gt=0, unit="s")
+        """flush to the operating system at least this often (wall time)"""
+        wall_clock: bool = param(True)
+        """incident-log entries carry the wall-clock time they were written ('wall')"""
 
     def start(self) -> None:
         from mcap.writer import CompressionType, Writer

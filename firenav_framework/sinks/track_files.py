@@ -16,10 +16,11 @@ class CsvTracks(FileSink):
     inputs = (PoseEstimate,)
 
     class Params(Params):
-        file: OutputName = param("{stream}.csv", description="file name under the output folder; "
-                          "{stream} is replaced by the input stream (dots become _)")
-        flush_every: int = param(50, ge=1, description="flush to disk every this many rows, "
-                                 "so a crash loses at most that many")
+        file: OutputName = param("{stream}.csv")
+        """file name under the output folder; {stream} is replaced by the input stream (dots become
+        _)"""
+        flush_every: int = param(50, ge=1)
+        """flush to disk every this many rows, so a crash loses at most that many"""
 
     def start(self) -> None:
         self._files: dict[str, IO[str]] = {}
@@ -53,7 +54,8 @@ class GeoJsonTracks(FileSink):
     inputs = (PoseEstimate,)
 
     class Params(Params):
-        file: OutputName = param("tracks.geojson", description="file name under the output folder")
+        file: OutputName = param("tracks.geojson")
+        """file name under the output folder"""
 
     def start(self) -> None:
         self._store = TrackStore()

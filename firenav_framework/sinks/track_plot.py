@@ -51,10 +51,12 @@ class TrackPlotSink(FileSink):
     inputs = (PoseEstimate, GroundTruth)
 
     class Params(Params):
-        file: OutputName = param("tracks.png", description="file name under the output folder")
-        ellipse_every: float = param(10.0, unit="s", gt=0, description="draw a 2-sigma "
-                                     "position ellipse this often along each track")
-        dpi: int = param(110, ge=30, le=600, description="image resolution")
+        file: OutputName = param("tracks.png")
+        """file name under the output folder"""
+        ellipse_every: float = param(10.0, unit="s", gt=0)
+        """draw a 2-sigma position ellipse this often along each track"""
+        dpi: int = param(110, ge=30, le=600)
+        """image resolution"""
 
     def start(self) -> None:
         self._store = TrackStore()

@@ -16,17 +16,17 @@ class CanBusSource(LiveSource):
     name = "can_bus"
 
     class Params(LiveParams):
-        interface: str = param("socketcan", description="python-can interface name "
-                               "(socketcan, pcan, kvaser, slcan, serial, virtual, "
-                               "udp_multicast, ...)")
-        channel: str = param("can0", description="interface channel (can0, PCAN_USBBUS1, "
-                             "/dev/ttyACM0, loop://, a multicast group, ...)")
-        bitrate: int | None = param(None, gt=0, unit="bit/s", description="bus bitrate "
-                                    "(None: the interface's default or current setting)")
-        device: str = param("", description="device name put in RawFrame.device and the "
-                            "logs (default: the channel)")
-        options: dict[str, Any] = param({}, description="further keyword arguments for "
-                                        "can.Bus (e.g. {port: 43113} for udp_multicast)")
+        interface: str = param("socketcan")
+        """python-can interface name (socketcan, pcan, kvaser, slcan, serial, virtual,
+        udp_multicast, ...)"""
+        channel: str = param("can0")
+        """interface channel (can0, PCAN_USBBUS1, /dev/ttyACM0, loop://, a multicast group, ...)"""
+        bitrate: int | None = param(None, gt=0, unit="bit/s")
+        """bus bitrate (None: the interface's default or current setting)"""
+        device: str = param("")
+        """device name put in RawFrame.device and the logs (default: the channel)"""
+        options: dict[str, Any] = param({})
+        """further keyword arguments for can.Bus (e.g. {port: 43113} for udp_multicast)"""
         record_format: str = param(".log", description="python-can log format of the "
                                    f"recording, by suffix: {', '.join(CAN_LOG_SUFFIXES)} "
                                    "(.log = candump, exact to 1 us)")

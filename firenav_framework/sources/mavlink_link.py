@@ -16,14 +16,15 @@ class MavlinkSource(LiveSource):
     name = "mavlink"
 
     class Params(LiveParams):
-        url: str = param("udpin:127.0.0.1:14550", description="pymavlink connection string "
-                         "(udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT, "
-                         "/dev/ttyUSB0)")
-        baud: int = param(115200, gt=0, unit="bit/s", description="serial baud rate")
-        source_system: int = param(255, ge=1, le=255, description="our system id in the "
-                                   "heartbeats we send")
-        heartbeat_s: float = param(1.0, ge=0, unit="s", description="send a GCS heartbeat "
-                                   "this often (0: never)")
+        url: str = param("udpin:127.0.0.1:14550")
+        """pymavlink connection string (udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT,
+        tcpin:HOST:PORT, /dev/ttyUSB0)"""
+        baud: int = param(115200, gt=0, unit="bit/s")
+        """serial baud rate"""
+        source_system: int = param(255, ge=1, le=255)
+        """our system id in the heartbeats we send"""
+        heartbeat_s: float = param(1.0, ge=0, unit="s")
+        """send a GCS heartbeat this often (0: never)"""
 
     def make_link(self) -> MavlinkLink:
         p = self.params

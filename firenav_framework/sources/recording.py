@@ -33,24 +33,23 @@ class RecordingSource(Source):
     outputs = dict(PORTS)
 
     class Params(Params):
-        path: str | None = param(None, description="recorded file, relative to the pipeline "
-                                 "file; `firenav run --input FILE` sets it")
-        format: str = param("auto", description="'auto' (by suffix; .mat by its variables, "
-                            ".csv/.txt by their header) or a format name / suffix, e.g. "
-                            "imu_csv, csv_columns, xio_gait_tracking, zupt_fgo, gaitmap, "
-                            "openshoe, pyshoe_vicon, indoor_walk, csv, mat")
-        agent: str = param("ff1", min_length=1, description="firefighter the file's data "
-                           "belong to, unless the file says")
-        device: str | None = param(None, description="device id of the IMU data unless the "
-                                   "file says (default '<agent>/imu')")
-        block_s: float = param(0.1, unit="s", gt=0, le=10,
-                               description="length of the ImuBlock pieces IMU data are cut into")
-        time_offset: float = param(0.0, unit="s", description="added to every time in the "
-                                   "file (to line it up with other sources)")
-        columns: CsvColumns | None = param(None, description="column and unit mapping of a "
-                                           "CSV / text IMU recording (docs/formats/"
-                                           "csv-columns.md); over a public format or a "
-                                           "sidecar file, its keys replace theirs")
+        path: str | None = param(None)
+        """recorded file, relative to the pipeline file; `firenav run --input FILE` sets it"""
+        format: str = param("auto")
+        """'auto' (by suffix; .mat by its variables, .csv/.txt by their header) or a format name /
+        suffix, e.g. imu_csv, csv_columns, xio_gait_tracking, zupt_fgo, gaitmap, openshoe,
+        pyshoe_vicon, indoor_walk, csv, mat"""
+        agent: str = param("ff1", min_length=1)
+        """firefighter the file's data belong to, unless the file says"""
+        device: str | None = param(None)
+        """device id of the IMU data unless the file says (default '<agent>/imu')"""
+        block_s: float = param(0.1, unit="s", gt=0, le=10)
+        """length of the ImuBlock pieces IMU data are cut into"""
+        time_offset: float = param(0.0, unit="s")
+        """added to every time in the file (to line it up with other sources)"""
+        columns: CsvColumns | None = param(None)
+        """column and unit mapping of a CSV / text IMU recording (docs/formats/csv-columns.md);
+        over a public format or a sidecar file, its keys replace theirs"""
 
         @field_validator("format")
         @classmethod

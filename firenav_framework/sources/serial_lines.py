@@ -15,7 +15,8 @@ class LineParams(LiveParams):
 
     terminator: str = param("\n", min_length=1, description="line terminator "
                             "(YAML escapes like \"\\r\\n\" work)")
-    max_line: int = param(4096, gt=0, le=1 << 20, unit="B", description="longer lines are decode errors")
+    max_line: int = param(4096, gt=0, le=1 << 20, unit="B")
+    """longer lines are decode errors"""
 
 
 class SerialLinesSource(LiveSource):
@@ -24,11 +25,12 @@ class SerialLinesSource(LiveSource):
     name = "serial_lines"
 
     class Params(LineParams):
-        url: str = param(description="serial port or pyserial URL (/dev/ttyUSB0, "
-                         "loop://, socket://HOST:PORT)")
-        baudrate: int = param(115200, gt=0, unit="bit/s", description="baud rate")
-        device: str = param("", description="device name for RawFrame.device and the logs "
-                            "(default: the port's file name)")
+        url: str = param()
+        """serial port or pyserial URL (/dev/ttyUSB0, loop://, socket://HOST:PORT)"""
+        baudrate: int = param(115200, gt=0, unit="bit/s")
+        """baud rate"""
+        device: str = param("")
+        """device name for RawFrame.device and the logs (default: the port's file name)"""
 
     def make_link(self) -> SerialLineLink:
         p = self.params

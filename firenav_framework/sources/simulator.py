@@ -58,21 +58,21 @@ class SimulatorSource(Source):
     input_param = "scenario"
 
     class Params(Params):
-        scenario: str = param("demo", description="scenario file (relative to the "
-                              "pipeline file) or bundled scenario name; see `firenav "
-                              "simulate --list`")
-        seed: int = param(0, ge=0, description="random seed: the same seed gives the same run")
-        duration: float | None = param(None, unit="s", gt=0, description="stop after this "
-                                       "long (default: the scenario's own end)")
-        block_s: float = param(0.1, unit="s", gt=0, le=10,
-                               description="length of the ImuBlock pieces")
-        imu_errors: ImuErrors | None = param(None, description="errors of every foot IMU, "
-                                             "replacing the scenario's: as_worn, "
-                                             "calibrated, datasheet or ideal (default: the "
-                                             "scenario's own, as_worn unless it says)")
-        imu_grade: str | None = param(None, description="grade of every foot IMU, "
-                                      "replacing the scenario's (e.g. consumer: a "
-                                      "consumer-IMU variant of the same walk)")
+        scenario: str = param("demo")
+        """scenario file (relative to the pipeline file) or bundled scenario name; see `firenav
+        simulate --list`"""
+        seed: int = param(0, ge=0)
+        """random seed: the same seed gives the same run"""
+        duration: float | None = param(None, unit="s", gt=0)
+        """stop after this long (default: the scenario's own end)"""
+        block_s: float = param(0.1, unit="s", gt=0, le=10)
+        """length of the ImuBlock pieces"""
+        imu_errors: ImuErrors | None = param(None)
+        """errors of every foot IMU, replacing the scenario's: as_worn, calibrated, datasheet or
+        ideal (default: the scenario's own, as_worn unless it says)"""
+        imu_grade: str | None = param(None)
+        """grade of every foot IMU, replacing the scenario's (e.g. consumer: a consumer-IMU variant
+        of the same walk)"""
 
         @field_validator("imu_grade")
         @classmethod

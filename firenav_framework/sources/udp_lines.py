@@ -17,8 +17,8 @@ class UdpLinesSource(LiveSource):
     name = "udp_lines"
 
     class Params(LineParams):
-        bind: str = param("127.0.0.1:5005", description="HOST:PORT to listen on "
-                          "(localhost by default; 0.0.0.0 for every interface)")
+        bind: str = param("127.0.0.1:5005")
+        """HOST:PORT to listen on (localhost by default; 0.0.0.0 for every interface)"""
 
     def make_link(self) -> UdpLineLink:
         p = self.params

@@ -34,27 +34,28 @@ POLL_S = 0.1
 class LiveParams(Params):
     """Parameters every live source has: recording, health and reconnection."""
 
-    record: bool = param(True, description="write every frame to disk as it arrives, "
-                         "before decoding (turn off only for throw-away tests)")
-    record_dir: OutputName = param("raw", description="folder for the recordings, under the "
-                            "output folder; each source writes into <record_dir>/<id>/")
-    rotate_mb: float = param(64.0, unit="MiB", gt=0, description="start a new log file "
-                             "when the current one reaches this size")
-    rotate_min: float = param(60.0, unit="min", ge=0, description="start a new log file "
-                              "after this many minutes (0: only by size)")
-    silent_after: float = param(2.0, unit="s", gt=0, description="a device heard before "
-                                "and silent this long raises device_silent")
-    report_every: float = param(10.0, unit="s", ge=0, description="link_health report "
-                                "period (0: never)")
-    device_agents: dict[str, str] = param({}, description="device-key pattern -> "
-                                          "firefighter id, so silence diagnostics name the "
-                                          "firefighter whose track goes stale (e.g. "
-                                          "{'sys1/*': ff1, 'can0/0x11?': ff1})")
-    reconnect_s: float = param(1.0, unit="s", gt=0, description="retry period while the "
-                               "link is down")
-    idle_exit_s: float = param(0.0, unit="s", ge=0, description="end the source after "
-                               "this long without any frame once frames have arrived "
-                               "(0: run until stopped)")
+    record: bool = param(True)
+    """write every frame to disk as it arrives, before decoding (turn off only for throw-away
+    tests)"""
+    record_dir: OutputName = param("raw")
+    """folder for the recordings, under the output folder; each source writes into
+    <record_dir>/<id>/"""
+    rotate_mb: float = param(64.0, unit="MiB", gt=0)
+    """start a new log file when the current one reaches this size"""
+    rotate_min: float = param(60.0, unit="min", ge=0)
+    """start a new log file after this many minutes (0: only by size)"""
+    silent_after: float = param(2.0, unit="s", gt=0)
+    """a device heard before and silent this long raises device_silent"""
+    report_every: float = param(10.0, unit="s", ge=0)
+    """link_health report period (0: never)"""
+    device_agents: dict[str, str] = param({})
+    """device-key pattern -> firefighter id, so silence diagnostics name the firefighter whose
+    track goes stale (e.g. {'sys1/*': ff1, 'can0/0x11?': ff1})"""
+    reconnect_s: float = param(1.0, unit="s", gt=0)
+    """retry period while the link is down"""
+    idle_exit_s: float = param(0.0, unit="s", ge=0)
+    """end the source after this long without any frame once frames have arrived (0: run until
+    stopped)"""
 
 
 class LiveSource(Source):

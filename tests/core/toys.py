@@ -26,9 +26,12 @@ class ScriptSource(Source):
     input_param = "path"
 
     class Params(Params):
-        steps: list[tuple[float, str, float]] = param([], description="(t, agent, dx) rows")
-        path: str = param("", description="unused file path, for --input tests")
-        truth_frame: str = param("building", description="frame named by the truth messages")
+        steps: list[tuple[float, str, float]] = param([])
+        """(t, agent, dx) rows"""
+        path: str = param("")
+        """unused file path, for --input tests"""
+        truth_frame: str = param("building")
+        """frame named by the truth messages"""
 
     def messages(self):
         for t, agent, dx in self.params.steps:
@@ -45,8 +48,10 @@ class LiveSource(Source):
     live = True
 
     class Params(Params):
-        steps: list[tuple[float, str, float]] = param([], description="(t, agent, dx) rows")
-        delay: float = param(0.001, unit="s", description="pause between messages")
+        steps: list[tuple[float, str, float]] = param([])
+        """(t, agent, dx) rows"""
+        delay: float = param(0.001, unit="s")
+        """pause between messages"""
 
     def messages(self):
         self._stop = threading.Event()
@@ -68,10 +73,14 @@ class Integrate(Estimator):
     outputs = {"pose": PoseEstimate}
 
     class Params(Params):
-        fail_agent: str = param("", description="agent whose step at fail_t raises")
-        fail_t: float = param(-1.0, unit="s", description="time of the failing step")
-        gain: float = param(1.0, gt=0, description="scale of each increment")
-        frame: str = param("building", description="frame its poses are in")
+        fail_agent: str = param("")
+        """agent whose step at fail_t raises"""
+        fail_t: float = param(-1.0, unit="s")
+        """time of the failing step"""
+        gain: float = param(1.0, gt=0)
+        """scale of each increment"""
+        frame: str = param("building")
+        """frame its poses are in"""
 
     def __init__(self, params, ctx):
         super().__init__(params, ctx)
@@ -114,7 +123,8 @@ class TickCounter(Sink):
     inputs = (Diagnostic,)
 
     class Params(Params):
-        period: float = param(1.0, unit="s", gt=0, description="tick period")
+        period: float = param(1.0, unit="s", gt=0)
+        """tick period"""
 
     @classmethod
     def tick_period(cls, params) -> float:
@@ -145,7 +155,8 @@ class FlakySource(ScriptSource):
     name = "flaky_script"
 
     class Params(ScriptSource.Params):
-        fail_after: int = param(3, ge=0, description="messages before the failure")
+        fail_after: int = param(3, ge=0)
+        """messages before the failure"""
 
     def messages(self):
         for i, item in enumerate(super().messages()):

@@ -24,10 +24,14 @@ class RogueEstimator(Integrate):
     name = "rogue"
 
     class Params(Integrate.Params):
-        mode: MODES = param("none", description="how to misbehave")
-        agent: str = param("ff1", description="whose data trigger it")
-        at: float = param(3.0, unit="s", description="from this time on")
-        marker: str = param("", description="file written just before misbehaving")
+        mode: MODES = param("none")
+        """how to misbehave"""
+        agent: str = param("ff1")
+        """whose data trigger it"""
+        at: float = param(3.0, unit="s")
+        """from this time on"""
+        marker: str = param("")
+        """file written just before misbehaving"""
 
     def handle(self, stream: str, msg: Odometry) -> None:
         p = self.params

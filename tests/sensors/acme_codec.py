@@ -31,7 +31,8 @@ class AcmeCanImuCodec(Codec):
     record = ImuSample
 
     class Options(Codec.Options):
-        nodes: int = param(2, ge=1, le=16, description="IMU nodes on the bus")
+        nodes: int = param(2, ge=1, le=16)
+        """IMU nodes on the bus"""
 
     def __init__(self, options=None, **kw):
         super().__init__(options, **kw)

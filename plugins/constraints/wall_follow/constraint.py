@@ -98,26 +98,26 @@ class WallFollowConstraint(OdometryCorrection):
     needs_building = True
 
     class Params(Params):
-        follow_distance: float = param(3.0, unit="m", gt=0, description="straight path length "
-                                       "before its direction is compared with the wall's")
-        max_distance: float = param(15.0, unit="m", gt=0, description="longest run "
-                                    "kept: older steps drop out (a slow drift shows over a "
-                                    "long straight walk; bounds the memory and the cost)")
-        follow_range: float = param(2.0, unit="m", gt=0, description="the run starts this "
-                                    "close to the wall's line (2 m: any corridor up to 4 m "
-                                    "wide)")
-        straightness: float = param(0.25, unit="m", gt=0, description="largest sideways "
-                                    "deviation of the run from its chord")
-        min_angle: Angle = param(math.radians(0.5), unit="rad", ge=0, description="smaller "
-                                 "deviations from the wall's direction are left alone")
-        max_angle: Angle = param(math.radians(8.0), unit="rad", gt=0, description="larger "
-                                 "deviations are walking away from the wall, not drift")
-        pivot: float = param(0.5, ge=0, le=1, description="the rotation turns about the point "
-                             "this fraction of the way back from the agent to the run's start")
-        turn: Angle = param(math.radians(30.0), unit="rad", gt=0, description="a heading or "
-                            "step-direction change over two steps above this ends the run")
-        min_step: float = param(0.2, unit="m", ge=0, description="shorter moves have no "
-                                "direction (for the turn check)")
+        follow_distance: float = param(3.0, unit="m", gt=0)
+        """straight path length before its direction is compared with the wall's"""
+        max_distance: float = param(15.0, unit="m", gt=0)
+        """longest run kept: older steps drop out (a slow drift shows over a long straight walk;
+        bounds the memory and the cost)"""
+        follow_range: float = param(2.0, unit="m", gt=0)
+        """the run starts this close to the wall's line (2 m: any corridor up to 4 m wide)"""
+        straightness: float = param(0.25, unit="m", gt=0)
+        """largest sideways deviation of the run from its chord"""
+        min_angle: Angle = param(math.radians(0.5), unit="rad", ge=0)
+        """smaller deviations from the wall's direction are left alone"""
+        max_angle: Angle = param(math.radians(8.0), unit="rad", gt=0)
+        """larger deviations are walking away from the wall, not drift"""
+        pivot: float = param(0.5, ge=0, le=1)
+        """the rotation turns about the point this fraction of the way back from the agent to the
+        run's start"""
+        turn: Angle = param(math.radians(30.0), unit="rad", gt=0)
+        """a heading or step-direction change over two steps above this ends the run"""
+        min_step: float = param(0.2, unit="m", ge=0)
+        """shorter moves have no direction (for the turn check)"""
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)

@@ -24,8 +24,8 @@ class Frames(CodecSelection):
 
     record: ClassVar[type] = BaroReading
 
-    codecs: dict[str, str] = param({"serial": "baro_lines", "udp": "baro_lines"},
-                                   description="link transport -> codec decoding its lines")
+    codecs: dict[str, str] = param({"serial": "baro_lines", "udp": "baro_lines"})
+    """link transport -> codec decoding its lines"""
 
 
 @dataclass
@@ -74,47 +74,44 @@ class BarometerSensor(Sensor):
     outputs = {"height": PressureHeight}
 
     class Params(Params):
-        reference: str = param("base/baro", description="device id of the reference "
-                               "barometer at the entrance or base station; empty: none "
-                               "(weather drift then grows the uncertainty)")
-        devices: dict[str, str] = param({}, description="barometer id -> firefighter, for "
-                                        "ids not named '<agent>/<device>'")
-        period: float = param(0.5, unit="s", gt=0, description="at most one height per "
-                              "firefighter this often (the mean of its readings; the end "
-                              "of the data flushes the last one)")
-        calibrate_s: float = param(3.0, unit="s", gt=0, description="zeroing: the first "
-                                   "seconds of a firefighter's readings, at the zeroing level")
-        zero_level: float | None = param(None, unit="m", description="building z of the "
-                                         "zeroing level (default: the floor of the "
-                                         "building's first entrance, else 0)")
-        air_temperature: float = param(293.15, unit="K", gt=150, lt=400, description="air "
-                                       "temperature of the height formula when the "
-                                       "reference reports none")
-        pressure_noise: float = param(2.0, unit="Pa", gt=0, description="1-sigma noise of "
-                                      "one reading (BMP388/MS5611 class: 1-3 Pa)")
-        indoor_offset: float = param(10.0, unit="Pa", ge=0, description="1-sigma pressure "
-                                     "difference inside vs. the reference that zeroing "
-                                     "cannot remove (fire, doors, ventilation, stack effect)")
-        drift_rate: float = param(0.02, unit="Pa/s", ge=0, description="1-sigma weather "
-                                  "drift per second of an unheard reference (about 1 hPa "
-                                  "in 3 h; fronts are faster)")
-        reference_window: float = param(10.0, unit="s", gt=0, description="the reference "
-                                        "is the mean of its readings this long before")
-        stuck_readings: int = param(20, ge=3, description="this many identical readings "
-                                    "in a row: the sensor is stuck (a live one's noise "
-                                    "changes its last digit), readings skipped until it "
-                                    "moves")
-        max_step: float = param(100.0, unit="Pa", gt=0, description="a reading further "
-                                "than this (plus max_rate per second) from the last good "
-                                "one is a jump, skipped (a storey is 40 Pa)")
-        max_rate: float = param(30.0, unit="Pa/s", gt=0, description="fastest real change "
-                                "(2.5 m/s vertical)")
-        rejump_s: float = param(5.0, unit="s", gt=0, description="readings steady this "
-                                "long at a jumped level: the sensor's offset jumped; "
-                                "taken on with the offset moved by the jump (the height "
-                                "carries on from before it)")
-        frames: Frames = param(Frames(), description="RawFrame inputs: the codec per "
-                               "transport and its options")
+        reference: str = param("base/baro")
+        """device id of the reference barometer at the entrance or base station; empty: none
+        (weather drift then grows the uncertainty)"""
+        devices: dict[str, str] = param({})
+        """barometer id -> firefighter, for ids not named '<agent>/<device>'"""
+        period: float = param(0.5, unit="s", gt=0)
+        """at most one height per firefighter this often (the mean of its readings; the end of the
+        data flushes the last one)"""
+        calibrate_s: float = param(3.0, unit="s", gt=0)
+        """zeroing: the first seconds of a firefighter's readings, at the zeroing level"""
+        zero_level: float | None = param(None, unit="m")
+        """building z of the zeroing level (default: the floor of the building's first entrance,
+        else 0)"""
+        air_temperature: float = param(293.15, unit="K", gt=150, lt=400)
+        """air temperature of the height formula when the reference reports none"""
+        pressure_noise: float = param(2.0, unit="Pa", gt=0)
+        """1-sigma noise of one reading (BMP388/MS5611 class: 1-3 Pa)"""
+        indoor_offset: float = param(10.0, unit="Pa", ge=0)
+        """1-sigma pressure difference inside vs. the reference that zeroing cannot remove (fire,
+        doors, ventilation, stack effect)"""
+        drift_rate: float = param(0.02, unit="Pa/s", ge=0)
+        """1-sigma weather drift per second of an unheard reference (about 1 hPa in 3 h; fronts are
+        faster)"""
+        reference_window: float = param(10.0, unit="s", gt=0)
+        """the reference is the mean of its readings this long before"""
+        stuck_readings: int = param(20, ge=3)
+        """this many identical readings in a row: the sensor is stuck (a live one's noise changes
+        its last digit), readings skipped until it moves"""
+        max_step: float = param(100.0, unit="Pa", gt=0)
+        """a reading further than this (plus max_rate per second) from the last good one is a jump,
+        skipped (a storey is 40 Pa)"""
+        max_rate: float = param(30.0, unit="Pa/s", gt=0)
+        """fastest real change (2.5 m/s vertical)"""
+        rejump_s: float = param(5.0, unit="s", gt=0)
+        """readings steady this long at a jumped level: the sensor's offset jumped; taken on with
+        the offset moved by the jump (the height carries on from before it)"""
+        frames: Frames = param(Frames())
+        """RawFrame inputs: the codec per transport and its options"""
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)

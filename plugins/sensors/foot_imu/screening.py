@@ -51,17 +51,16 @@ GAP_BEFORE = np.uint8(IMU_FLAG_BITS["gap_before"])
 class ScreeningLimits(Params):
     """Thresholds of the screening (the ``screening`` parameter group), SI units."""
 
-    accel_range: float = param(400.0, unit="m/s^2", gt=0, description="plausible limit "
-                               "per axis (about 40 g); samples beyond are dropped as corrupt")
-    gyro_range: float = param(40.0, unit="rad/s", gt=0, description="plausible limit per "
-                              "axis (about 2300 deg/s); samples beyond are dropped")
-    accel_saturation: float | None = param(None, unit="m/s^2", gt=0, description="the "
-                                           "device's accel full scale: samples at or beyond "
-                                           "are flagged saturated and kept")
-    gyro_saturation: float | None = param(None, unit="rad/s", gt=0, description="the "
-                                          "device's gyro full scale (flag, keep)")
-    gap: float = param(0.05, unit="s", gt=0, description="a step between samples longer "
-                       "than this is a gap: flagged gap_before, counted and reported")
+    accel_range: float = param(400.0, unit="m/s^2", gt=0)
+    """plausible limit per axis (about 40 g); samples beyond are dropped as corrupt"""
+    gyro_range: float = param(40.0, unit="rad/s", gt=0)
+    """plausible limit per axis (about 2300 deg/s); samples beyond are dropped"""
+    accel_saturation: float | None = param(None, unit="m/s^2", gt=0)
+    """the device's accel full scale: samples at or beyond are flagged saturated and kept"""
+    gyro_saturation: float | None = param(None, unit="rad/s", gt=0)
+    """the device's gyro full scale (flag, keep)"""
+    gap: float = param(0.05, unit="s", gt=0)
+    """a step between samples longer than this is a gap: flagged gap_before, counted and reported"""
 
     @model_validator(mode="after")
     def _saturation_in_range(self) -> "ScreeningLimits":

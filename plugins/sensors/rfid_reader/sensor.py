@@ -20,8 +20,8 @@ class Frames(CodecSelection):
 
     record: ClassVar[type] = RfidEvent
 
-    codecs: dict[str, str] = param({"serial": "rfid_lines", "udp": "rfid_lines"},
-                                   description="link transport -> codec decoding its lines")
+    codecs: dict[str, str] = param({"serial": "rfid_lines", "udp": "rfid_lines"})
+    """link transport -> codec decoding its lines"""
 
 
 class RfidReaderSensor(Sensor):
@@ -35,21 +35,21 @@ class RfidReaderSensor(Sensor):
     world_outputs = ("deployments",)
 
     class Params(Params):
-        pass_gap: float = param(2.0, unit="s", gt=0, description="reads of a tag closer in "
-                                "time than this belong to one pass; a pass ends this long "
-                                "after its last read")
-        max_pass: float = param(30.0, unit="s", gt=0, description="a pass longer than this is "
-                                "reported and a new one starts (an agent standing at a tag)")
-        min_reads: int = param(1, ge=1, description="passes with fewer reads are dropped as "
-                               "spurious (counted)")
-        flush_period: float = param(0.5, unit="s", gt=0, description="how often finished "
-                                    "passes are looked for")
-        known_tags: list[str] = param([], description="tag ids known before the run "
-                                      "(surveyed); reads of them are not 'unknown'")
-        readers: dict[str, str] = param({}, description="reader id -> agent, for readers "
-                                        "not named '<agent>/<device>'")
-        frames: Frames = param(Frames(), description="RawFrame inputs: the codec per "
-                               "transport and its options")
+        pass_gap: float = param(2.0, unit="s", gt=0)
+        """reads of a tag closer in time than this belong to one pass; a pass ends this long after
+        its last read"""
+        max_pass: float = param(30.0, unit="s", gt=0)
+        """a pass longer than this is reported and a new one starts (an agent standing at a tag)"""
+        min_reads: int = param(1, ge=1)
+        """passes with fewer reads are dropped as spurious (counted)"""
+        flush_period: float = param(0.5, unit="s", gt=0)
+        """how often finished passes are looked for"""
+        known_tags: list[str] = param([])
+        """tag ids known before the run (surveyed); reads of them are not 'unknown'"""
+        readers: dict[str, str] = param({})
+        """reader id -> agent, for readers not named '<agent>/<device>'"""
+        frames: Frames = param(Frames())
+        """RawFrame inputs: the codec per transport and its options"""
 
     @classmethod
     def tick_period(cls, params: Params) -> float:

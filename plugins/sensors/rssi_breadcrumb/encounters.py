@@ -11,14 +11,14 @@ __all__ = ["EncounterRules", "Episode", "EncounterDetector"]
 class EncounterRules(Params):
     """What makes an encounter episode and when its peak is confirmed."""
 
-    dbm: float = param(-40.0, unit="dBm", description="an encounter episode is RSSI at or "
-                       "above this (§V-A)")
-    hysteresis_db: float = param(3.0, unit="dB", ge=0, description="the peak is confirmed "
-                                 "once the RSSI falls this far below it")
-    max_gap_s: float = param(3.0, unit="s", gt=0, description="an episode ends when the "
-                             "link is quiet this long")
-    sigma_m: float = param(1.0, unit="m", gt=0, description="position agreement of an "
-                           "encounter, per axis")
+    dbm: float = param(-40.0, unit="dBm")
+    """an encounter episode is RSSI at or above this (§V-A)"""
+    hysteresis_db: float = param(3.0, unit="dB", ge=0)
+    """the peak is confirmed once the RSSI falls this far below it"""
+    max_gap_s: float = param(3.0, unit="s", gt=0)
+    """an episode ends when the link is quiet this long"""
+    sigma_m: float = param(1.0, unit="m", gt=0)
+    """position agreement of an encounter, per axis"""
 
 
 @dataclass

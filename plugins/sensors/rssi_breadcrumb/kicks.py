@@ -14,11 +14,12 @@ __all__ = ["KickRules", "KickDetector"]
 class KickRules(Params):
     """How far and on how many links a fixed node's RSSI must shift to say it moved."""
 
-    db: float = param(6.0, unit="dB", gt=0, description="shift of a fixed link's median "
-                      "RSSI that says a node moved")
-    window: int = param(8, ge=3, description="readings per median of a fixed link")
-    min_links: int = param(2, ge=1, description="fixed links of a node that must shift "
-                           "together")
+    db: float = param(6.0, unit="dB", gt=0)
+    """shift of a fixed link's median RSSI that says a node moved"""
+    window: int = param(8, ge=3)
+    """readings per median of a fixed link"""
+    min_links: int = param(2, ge=1)
+    """fixed links of a node that must shift together"""
 
 
 @dataclass

@@ -22,9 +22,9 @@ class Frames(CodecSelection):
 
     record: ClassVar[type] = RadioEvent
 
-    codecs: dict[str, str] = param({"serial": "breadcrumb_lines", "udp": "breadcrumb_lines"},
-                                   description="link transport -> codec decoding the radio "
-                                   "network's lines (docs/formats/breadcrumb-radio.md)")
+    codecs: dict[str, str] = param({"serial": "breadcrumb_lines", "udp": "breadcrumb_lines"})
+    """link transport -> codec decoding the radio network's lines (docs/formats/breadcrumb-
+    radio.md)"""
 
 
 class RssiBreadcrumbSensor(Sensor):
@@ -39,32 +39,31 @@ class RssiBreadcrumbSensor(Sensor):
     world_outputs = ("drops",)
 
     class Params(Params):
-        rssi_1m_dbm: float = param(-40.0, unit="dBm", description="RSSI at 1 m (breadcrumb "
-                                   "paper §V-A: above -40 dBm within about a metre)")
-        path_loss_exponent: float = param(3.0, gt=1, lt=6, description="log-distance "
-                                          "exponent n (indoor 2.4 GHz: 2.5-3.5; calibrate)")
-        shadowing_db: float = param(5.0, unit="dB", gt=0, description="std of the RSSI about "
-                                    "the model (shadowing + fading); sets the range sigma")
-        min_range_m: float = param(0.3, unit="m", gt=0, description="model ranges are "
-                                   "clipped up to this")
-        max_range_m: float = param(30.0, unit="m", gt=0, description="readings implying a "
-                                   "longer range carry no useful range and are skipped "
-                                   "(counted)")
-        max_rssi_dbm: float = param(0.0, unit="dBm", description="above this a reading is "
-                                    "impossible")
-        min_rssi_dbm: float = param(-110.0, unit="dBm", description="below this a reading "
-                                    "is impossible (under any receiver's sensitivity)")
-        base_stations: list[str] = param(["base"], description="node ids of base stations "
-                                         "(fixed nodes known from the start)")
-        encounter: EncounterRules = param(EncounterRules(), description="encounter "
-                                          "episodes (§V-A): threshold, peak, sigma")
-        kick: KickRules = param(KickRules(), description="moved-breadcrumb detection on "
-                                "the links between fixed nodes (§V-B/C)")
-        silent_s: float = param(60.0, unit="s", gt=0, description="a dropped breadcrumb "
-                                "nobody has heard for this long is reported silent (a dud "
-                                "if never heard; burned or lost if it fell silent)")
-        frames: Frames = param(Frames(), description="RawFrame inputs: the codec per "
-                               "transport and its options")
+        rssi_1m_dbm: float = param(-40.0, unit="dBm")
+        """RSSI at 1 m (breadcrumb paper §V-A: above -40 dBm within about a metre)"""
+        path_loss_exponent: float = param(3.0, gt=1, lt=6)
+        """log-distance exponent n (indoor 2.4 GHz: 2.5-3.5; calibrate)"""
+        shadowing_db: float = param(5.0, unit="dB", gt=0)
+        """std of the RSSI about the model (shadowing + fading); sets the range sigma"""
+        min_range_m: float = param(0.3, unit="m", gt=0)
+        """model ranges are clipped up to this"""
+        max_range_m: float = param(30.0, unit="m", gt=0)
+        """readings implying a longer range carry no useful range and are skipped (counted)"""
+        max_rssi_dbm: float = param(0.0, unit="dBm")
+        """above this a reading is impossible"""
+        min_rssi_dbm: float = param(-110.0, unit="dBm")
+        """below this a reading is impossible (under any receiver's sensitivity)"""
+        base_stations: list[str] = param(["base"])
+        """node ids of base stations (fixed nodes known from the start)"""
+        encounter: EncounterRules = param(EncounterRules())
+        """encounter episodes (§V-A): threshold, peak, sigma"""
+        kick: KickRules = param(KickRules())
+        """moved-breadcrumb detection on the links between fixed nodes (§V-B/C)"""
+        silent_s: float = param(60.0, unit="s", gt=0)
+        """a dropped breadcrumb nobody has heard for this long is reported silent (a dud if never
+        heard; burned or lost if it fell silent)"""
+        frames: Frames = param(Frames())
+        """RawFrame inputs: the codec per transport and its options"""
 
     def __init__(self, params: Params, ctx: Context) -> None:
         super().__init__(params, ctx)

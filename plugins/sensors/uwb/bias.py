@@ -11,11 +11,13 @@ __all__ = ["AnchorBias"]
 class AnchorBias(Params):
     """Range bias model of one anchor: ``measured = scale * true + offset_m + b(rx)``."""
 
-    offset_m: float = param(0.0, unit="m", description="constant bias (antenna delay residue)")
-    scale: float = param(1.0, gt=0.5, lt=1.5, description="scale factor (clock/propagation)")
-    power_table: list[tuple[float, float]] = param(
-        [], description="(rx_power_dbm, bias_m) points of the power-dependent bias, "
-        "interpolated linearly (held constant beyond the ends)")
+    offset_m: float = param(0.0, unit="m")
+    """constant bias (antenna delay residue)"""
+    scale: float = param(1.0, gt=0.5, lt=1.5)
+    """scale factor (clock/propagation)"""
+    power_table: list[tuple[float, float]] = param([])
+    """(rx_power_dbm, bias_m) points of the power-dependent bias, interpolated linearly (held
+    constant beyond the ends)"""
 
     def correct(self, range_m: float, rx_dbm: float | None) -> float:
         """The bias-corrected range [m] of a raw range [m] received at ``rx_dbm`` [dBm]."""
