@@ -59,17 +59,27 @@ TIMELINE_ID = "timeline"
 class TimelineConfig(BaseModel):
     """The timeline's rules (the ``timeline:`` section of a pipeline)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
-    reorder_window: float = Field(0.25, ge=0, description="hold messages this long [s] to reorder late arrivals", json_schema_extra={"unit": "s"})
-    duplicates: Literal["drop", "keep"] = Field("drop", description="rule for exact duplicates")
-    duplicate_memory: int = Field(64, ge=1, le=100_000, description="messages per channel remembered for duplicate detection")
-    late: Literal["drop", "deliver"] = Field("drop", description="rule for messages older than ones already released")
-    clock_jump: float = Field(5.0, gt=0, description="a time step back larger than this [s] is a clock jump", json_schema_extra={"unit": "s"})
-    on_clock_jump: Literal["rebase", "drop"] = Field("rebase", description="rule for clock jumps")
-    gap: float = Field(2.0, gt=0, description="a silence longer than this [s] is reported as a gap", json_schema_extra={"unit": "s"})
-    max_lead: float = Field(3600.0, gt=0, le=1e7, description="a message more than this [s] ahead of the newest time is held until its channel confirms the leap", json_schema_extra={"unit": "s"})
-    lead_confirm: int = Field(3, ge=1, le=100, description="messages in a row near a held one that confirm a real leap of time")
+    reorder_window: float = Field(0.25, ge=0, json_schema_extra={"unit": "s"})
+    """hold messages this long [s] to reorder late arrivals"""
+    duplicates: Literal["drop", "keep"] = Field("drop")
+    """rule for exact duplicates"""
+    duplicate_memory: int = Field(64, ge=1, le=100_000)
+    """messages per channel remembered for duplicate detection"""
+    late: Literal["drop", "deliver"] = Field("drop")
+    """rule for messages older than ones already released"""
+    clock_jump: float = Field(5.0, gt=0, json_schema_extra={"unit": "s"})
+    """a time step back larger than this [s] is a clock jump"""
+    on_clock_jump: Literal["rebase", "drop"] = Field("rebase")
+    """rule for clock jumps"""
+    gap: float = Field(2.0, gt=0, json_schema_extra={"unit": "s"})
+    """a silence longer than this [s] is reported as a gap"""
+    max_lead: float = Field(3600.0, gt=0, le=1e7, json_schema_extra={"unit": "s"})
+    """a message more than this [s] ahead of the newest time is held until its channel confirms the
+    leap"""
+    lead_confirm: int = Field(3, ge=1, le=100)
+    """messages in a row near a held one that confirm a real leap of time"""
 
 
 @dataclass

@@ -29,47 +29,47 @@ Posture = Literal["stand", "kneel", "crawl"]
 class Gait(BaseModel):
     """The foot motion of one way of moving (per stride of the instrumented foot)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
-    speed: float = Field(1.3, gt=0, le=4.0, description="walking speed along the path [m/s]")
-    stride: float = Field(1.4, gt=0.05, le=2.5,
-                          description="stride length of one foot at this speed [m]")
-    swing_s: float = Field(1.07, gt=0.2, le=3.0,
-                           description="heel-off to foot-flat [s] (at most: a stride keeps "
-                           "min_flat_s flat); the rest of the stride the foot is flat and "
-                           "still (0.1 s at 1.3 m/s, 0.2 s at 0.9 m/s)")
-    toe_rocker_s: float = Field(0.37, ge=0, le=1.2, description="heel-off to toe-off [s]: "
-                                "the foot rolls over the ball (terminal stance and "
-                                "pre-swing, 20-30 % of the gait cycle)")
-    heel_rocker_s: float = Field(0.16, ge=0, le=0.6, description="heel strike to foot-flat "
-                                 "[s]: the foot rolls down about the heel (loading response, "
-                                 "about 10 % of the gait cycle)")
-    clearance: float = Field(0.06, ge=0, le=0.5, description="lift of the foot's contact "
-                             "point (ball, then heel) at mid-swing [m]; the IMU rises more "
-                             "as the foot pitches")
-    toe_off_deg: float = Field(55.0, ge=-60, le=80, description="toe-down pitch at toe-off "
-                               "(the largest plantarflexion after it; crawling: the turn of "
-                               "the lifted shoe)")
-    heel_strike_deg: float = Field(20.0, ge=0, le=45, description="toe-up pitch at heel "
-                                   "strike")
-    roll_deg: float = Field(4.0, ge=0, le=20, description="foot inversion at toe-off and at "
-                            "heel strike")
-    sway: float = Field(0.02, ge=0, le=0.2, description="lateral foot excursion in swing [m]")
-    impact_mm: float = Field(2.5, ge=0, le=20, description="heel pad / sole give at heel "
-                             "strike, down and forward (peaks of 3-4 g at normal walking, as "
-                             "on the real recordings) [mm]")
-    free_turn_deg: float = Field(0.0, ge=0.0, le=90.0, description="a curve of up to this "
-                                 "much per stride is walked at full pace (beyond it, and "
-                                 "always on the spot, turning costs time: 60 degrees a "
-                                 "stride) [deg]")
-    flex_scale: float = Field(1.0, ge=0.0, le=5.0, description="how far the boot flexes "
-                              "over a ground contact, relative to walking (the mount's "
-                              "flex_deg; running pushes harder)")
-    min_flat_s: float = Field(0.1, ge=0.0, le=1.0, description="shortest flat stance of a "
-                              "stride [s] (running: the foot is flat for an instant only)")
-    posture: Posture = Field("stand", description="stand; kneel (on the knees, toes tucked "
-                             "under: knee-walking); crawl (on hands and knees, the shoe on "
-                             "its top behind the knee)")
+    speed: float = Field(1.3, gt=0, le=4.0)
+    """walking speed along the path [m/s]"""
+    stride: float = Field(1.4, gt=0.05, le=2.5)
+    """stride length of one foot at this speed [m]"""
+    swing_s: float = Field(1.07, gt=0.2, le=3.0)
+    """heel-off to foot-flat [s] (at most: a stride keeps min_flat_s flat); the rest of the stride
+    the foot is flat and still (0.1 s at 1.3 m/s, 0.2 s at 0.9 m/s)"""
+    toe_rocker_s: float = Field(0.37, ge=0, le=1.2)
+    """heel-off to toe-off [s]: the foot rolls over the ball (terminal stance and pre-swing, 20-30
+    % of the gait cycle)"""
+    heel_rocker_s: float = Field(0.16, ge=0, le=0.6)
+    """heel strike to foot-flat [s]: the foot rolls down about the heel (loading response, about 10
+    % of the gait cycle)"""
+    clearance: float = Field(0.06, ge=0, le=0.5)
+    """lift of the foot's contact point (ball, then heel) at mid-swing [m]; the IMU rises more as
+    the foot pitches"""
+    toe_off_deg: float = Field(55.0, ge=-60, le=80)
+    """toe-down pitch at toe-off (the largest plantarflexion after it; crawling: the turn of the
+    lifted shoe)"""
+    heel_strike_deg: float = Field(20.0, ge=0, le=45)
+    """toe-up pitch at heel strike"""
+    roll_deg: float = Field(4.0, ge=0, le=20)
+    """foot inversion at toe-off and at heel strike"""
+    sway: float = Field(0.02, ge=0, le=0.2)
+    """lateral foot excursion in swing [m]"""
+    impact_mm: float = Field(2.5, ge=0, le=20)
+    """heel pad / sole give at heel strike, down and forward (peaks of 3-4 g at normal walking, as
+    on the real recordings) [mm]"""
+    free_turn_deg: float = Field(0.0, ge=0.0, le=90.0)
+    """a curve of up to this much per stride is walked at full pace (beyond it, and always on the
+    spot, turning costs time: 60 degrees a stride) [deg]"""
+    flex_scale: float = Field(1.0, ge=0.0, le=5.0)
+    """how far the boot flexes over a ground contact, relative to walking (the mount's flex_deg;
+    running pushes harder)"""
+    min_flat_s: float = Field(0.1, ge=0.0, le=1.0)
+    """shortest flat stance of a stride [s] (running: the foot is flat for an instant only)"""
+    posture: Posture = Field("stand")
+    """stand; kneel (on the knees, toes tucked under: knee-walking); crawl (on hands and knees, the
+    shoe on its top behind the knee)"""
 
 
 #: Built-in gaits. ``stairs_*`` strides span two treads; their speed is unused.
@@ -151,18 +151,19 @@ class Person(BaseModel):
     duration (fraction, 1 sigma) and ``heading_jitter_deg`` that of foot placement.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
     stride_scale: float | None = Field(None, gt=0.5, lt=1.5)
     speed_scale: float | None = Field(None, gt=0.5, lt=1.5)
     foot: Literal["right", "left"] = "right"
     foot_offset: float = Field(0.10, ge=0, le=0.3)
     toe_out_deg: float = Field(7.0, ge=-20, le=30)
-    imu_height: float = Field(0.06, gt=0, le=0.3, description="IMU above the floor at stance [m]")
-    imu_from_heel: float = Field(0.10, ge=0, le=0.3, description="IMU ahead of the heel's "
-                                 "contact point [m] (an instep mount)")
-    imu_to_ball: float = Field(0.08, ge=0, le=0.3, description="ball of the foot "
-                               "(metatarsal heads) ahead of the IMU [m]")
+    imu_height: float = Field(0.06, gt=0, le=0.3)
+    """IMU above the floor at stance [m]"""
+    imu_from_heel: float = Field(0.10, ge=0, le=0.3)
+    """IMU ahead of the heel's contact point [m] (an instep mount)"""
+    imu_to_ball: float = Field(0.08, ge=0, le=0.3)
+    """ball of the foot (metatarsal heads) ahead of the IMU [m]"""
     jitter: float = Field(0.03, ge=0, le=0.2)
     heading_jitter_deg: float = Field(2.0, ge=0, le=15)
 

@@ -39,51 +39,78 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
 class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
 
 class GyroSpec(_Spec):
     """Gyroscope errors per axis, datasheet units."""
 
-    range_dps: float = Field(2000.0, gt=0, description="full scale [deg/s]")
-    noise_density_dps_rthz: float = Field(0.007, ge=0, description="[deg/s/sqrt(Hz)]")
-    bias_instability_dph: float = Field(10.0, ge=0, description="Allan floor [deg/h]")
-    bias_tau_s: float = Field(100.0, gt=0, description="bias correlation time [s]")
-    rate_random_walk_dps_rts: float = Field(0.0, ge=0, description="[deg/s/sqrt(s)]")
-    turn_on_bias_dps: float = Field(0.1, ge=0, description="bias repeatability [deg/s]")
-    thermal_drift_dps_per_k: float = Field(0.0, ge=0, description="[deg/s/K]")
-    scale_factor_pct: float = Field(0.1, ge=0, description="[%]")
-    nonlinearity_pct: float = Field(0.0, ge=0, description="[% of full scale]")
-    misalignment_deg: float = Field(0.1, ge=0, description="cross-axis [deg]")
-    g_sensitivity_dps_per_g: float = Field(0.0, ge=0, description="[deg/s/g]")
-    vibration_bias_dps: float = Field(0.0, ge=0, description="bias at 1 g rms of vibration "
-                                      "above 10 Hz, growing with its square root [deg/s]")
-    resolution_dps: float = Field(0.0, ge=0, description="quantisation step [deg/s]")
+    range_dps: float = Field(2000.0, gt=0)
+    """full scale [deg/s]"""
+    noise_density_dps_rthz: float = Field(0.007, ge=0)
+    """[deg/s/sqrt(Hz)]"""
+    bias_instability_dph: float = Field(10.0, ge=0)
+    """Allan floor [deg/h]"""
+    bias_tau_s: float = Field(100.0, gt=0)
+    """bias correlation time [s]"""
+    rate_random_walk_dps_rts: float = Field(0.0, ge=0)
+    """[deg/s/sqrt(s)]"""
+    turn_on_bias_dps: float = Field(0.1, ge=0)
+    """bias repeatability [deg/s]"""
+    thermal_drift_dps_per_k: float = Field(0.0, ge=0)
+    """[deg/s/K]"""
+    scale_factor_pct: float = Field(0.1, ge=0)
+    """[%]"""
+    nonlinearity_pct: float = Field(0.0, ge=0)
+    """[% of full scale]"""
+    misalignment_deg: float = Field(0.1, ge=0)
+    """cross-axis [deg]"""
+    g_sensitivity_dps_per_g: float = Field(0.0, ge=0)
+    """[deg/s/g]"""
+    vibration_bias_dps: float = Field(0.0, ge=0)
+    """bias at 1 g rms of vibration above 10 Hz, growing with its square root [deg/s]"""
+    resolution_dps: float = Field(0.0, ge=0)
+    """quantisation step [deg/s]"""
 
 
 class AccelSpec(_Spec):
     """Accelerometer errors per axis, datasheet units."""
 
-    range_g: float = Field(16.0, gt=0, description="full scale [g]")
-    noise_density_ug_rthz: float = Field(120.0, ge=0, description="[ug/sqrt(Hz)]")
-    bias_instability_ug: float = Field(30.0, ge=0, description="Allan floor [ug]")
-    bias_tau_s: float = Field(100.0, gt=0, description="bias correlation time [s]")
-    random_walk_ug_rts: float = Field(0.0, ge=0, description="bias random walk [ug/sqrt(s)]")
-    turn_on_bias_mg: float = Field(2.0, ge=0, description="bias repeatability [mg]")
-    thermal_drift_mg_per_k: float = Field(0.0, ge=0, description="[mg/K]")
-    scale_factor_pct: float = Field(0.1, ge=0, description="[%]")
-    nonlinearity_pct: float = Field(0.0, ge=0, description="[% of full scale]")
-    misalignment_deg: float = Field(0.1, ge=0, description="cross-axis [deg]")
-    resolution_mg: float = Field(0.0, ge=0, description="quantisation step [mg]")
+    range_g: float = Field(16.0, gt=0)
+    """full scale [g]"""
+    noise_density_ug_rthz: float = Field(120.0, ge=0)
+    """[ug/sqrt(Hz)]"""
+    bias_instability_ug: float = Field(30.0, ge=0)
+    """Allan floor [ug]"""
+    bias_tau_s: float = Field(100.0, gt=0)
+    """bias correlation time [s]"""
+    random_walk_ug_rts: float = Field(0.0, ge=0)
+    """bias random walk [ug/sqrt(s)]"""
+    turn_on_bias_mg: float = Field(2.0, ge=0)
+    """bias repeatability [mg]"""
+    thermal_drift_mg_per_k: float = Field(0.0, ge=0)
+    """[mg/K]"""
+    scale_factor_pct: float = Field(0.1, ge=0)
+    """[%]"""
+    nonlinearity_pct: float = Field(0.0, ge=0)
+    """[% of full scale]"""
+    misalignment_deg: float = Field(0.1, ge=0)
+    """cross-axis [deg]"""
+    resolution_mg: float = Field(0.0, ge=0)
+    """quantisation step [mg]"""
 
 
 class MagSpec(_Spec):
     """Magnetometer errors (the indoor field disturbance is a scenario property)."""
 
-    range_ut: float = Field(800.0, gt=0, description="full scale [uT]")
-    noise_ut: float = Field(0.5, ge=0, description="white noise per sample [uT]")
-    hard_iron_ut: float = Field(5.0, ge=0, description="residual hard-iron offset [uT]")
-    soft_iron_pct: float = Field(2.0, ge=0, description="residual soft-iron gain/coupling [%]")
+    range_ut: float = Field(800.0, gt=0)
+    """full scale [uT]"""
+    noise_ut: float = Field(0.5, ge=0)
+    """white noise per sample [uT]"""
+    hard_iron_ut: float = Field(5.0, ge=0)
+    """residual hard-iron offset [uT]"""
+    soft_iron_pct: float = Field(2.0, ge=0)
+    """residual soft-iron gain/coupling [%]"""
 
 
 class WornProfile(_Spec):

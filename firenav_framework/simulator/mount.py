@@ -68,29 +68,27 @@ class MountConfig(BaseModel):
     below 2 Hz (``sway_dps``).
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
-    natural_hz: float = Field(18.0, gt=2, le=200, description="natural frequency of the "
-                              "IMU on its strap [Hz]")
-    damping: float = Field(0.2, gt=0, le=2, description="damping ratio of the mount")
-    rocking_deg_per_g: float = Field(1.0, ge=0, le=10, description="static tilt of the IMU "
-                                     "on its strap per g of sideways / fore-aft specific "
-                                     "force [deg/g]")
-    flex_deg: float = Field(12.0, ge=0, le=20, description="rotation of the upper under "
-                            "the IMU relative to the sole over one ground contact [deg]")
-    shear_mm: float = Field(2.5, ge=0, le=20, description="fore-aft shift of the upper over "
-                            "the outsole under the braking and propulsive ground force "
-                            "(peak) [mm]")
-    pivot_slide_mm: float = Field(0.0, ge=0, le=100, description="rms horizontal shift "
-                                  "of the IMU over one ground contact per radian the foot "
-                                  "turned since the last contact (the shoe pivoting on the "
-                                  "floor) [mm/rad]")
-    sway_dps: float = Field(0.3, ge=0, le=5, description="rms angular rate of postural "
-                            "sway seen by the IMU [deg/s], 0.2-2 Hz")
-    rock_deg: float = Field(4.2, ge=0, le=20, description="on all fours: how far the shoe, "
-                            "lying on its top, rocks over one contact as the weight shifts "
-                            "[deg] (the real crawl trials; not the boot's flex, which needs "
-                            "the ankle)")
+    natural_hz: float = Field(18.0, gt=2, le=200)
+    """natural frequency of the IMU on its strap [Hz]"""
+    damping: float = Field(0.2, gt=0, le=2)
+    """damping ratio of the mount"""
+    rocking_deg_per_g: float = Field(1.0, ge=0, le=10)
+    """static tilt of the IMU on its strap per g of sideways / fore-aft specific force [deg/g]"""
+    flex_deg: float = Field(12.0, ge=0, le=20)
+    """rotation of the upper under the IMU relative to the sole over one ground contact [deg]"""
+    shear_mm: float = Field(2.5, ge=0, le=20)
+    """fore-aft shift of the upper over the outsole under the braking and propulsive ground force
+    (peak) [mm]"""
+    pivot_slide_mm: float = Field(0.0, ge=0, le=100)
+    """rms horizontal shift of the IMU over one ground contact per radian the foot turned since the
+    last contact (the shoe pivoting on the floor) [mm/rad]"""
+    sway_dps: float = Field(0.3, ge=0, le=5)
+    """rms angular rate of postural sway seen by the IMU [deg/s], 0.2-2 Hz"""
+    rock_deg: float = Field(4.2, ge=0, le=20)
+    """on all fours: how far the shoe, lying on its top, rocks over one contact as the weight
+    shifts [deg] (the real crawl trials; not the boot's flex, which needs the ankle)"""
 
 
 @dataclass

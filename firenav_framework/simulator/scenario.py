@@ -43,7 +43,7 @@ XY = tuple[float, float]
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
 
 # -- environment and radio ------------------------------------------------------------
@@ -54,7 +54,8 @@ class Magnetic(_Model):
     intensity_ut: float = Field(50.0, gt=0, le=70)
     inclination_deg: float = Field(65.0, ge=-90, le=90)
     declination_deg: float = Field(2.0, ge=-180, le=180)
-    indoor_disturbance_ut: float = Field(10.0, ge=0, description="rms per axis [uT]")
+    indoor_disturbance_ut: float = Field(10.0, ge=0)
+    """rms per axis [uT]"""
 
 
 class Temperature(_Model):
@@ -65,49 +66,57 @@ class Temperature(_Model):
     can calibrate the bias at the start, not its later drift.
     """
 
-    change_k: float = Field(10.0, ge=-50, le=150, description="final change [K]")
-    tau_s: float = Field(600.0, gt=0, description="time constant of the change [s]")
+    change_k: float = Field(10.0, ge=-50, le=150)
+    """final change [K]"""
+    tau_s: float = Field(600.0, gt=0)
+    """time constant of the change [s]"""
 
 
 class Pressure(_Model):
     """The air the barometers are in (simulator/barometer.py): weather, drawn per seed
     and drifting, and the building's own pressure against the outside."""
 
-    sea_level_pa: tuple[float, float] = Field((99_000.0, 103_000.0), description="sea-level "
-                                              "pressure at the start, drawn in this range [Pa]")
-    trend_pa_per_h: float = Field(50.0, ge=0, description="1-sigma of the weather's linear "
-                                  "trend, drawn per seed [Pa/h] (a front: 100-300 Pa/h)")
-    weather_rw_pa_per_sqrt_s: float = Field(0.05, ge=0, description="weather random walk "
-                                            "[Pa/sqrt(s)]")
-    site_elevation_m: float | None = Field(None, description="height of building z = 0 above "
-                                           "sea level [m] (default: the plan's georef "
-                                           "altitude, else 0)")
-    outside_c: tuple[float, float] = Field((-5.0, 25.0), description="outside air "
-                                           "temperature, drawn in this range [C]")
-    inside_c: float = Field(20.0, ge=-20, le=80, description="inside air temperature [C]")
-    neutral_plane: tuple[float, float] = Field((0.3, 0.7), description="height of the stack "
-                                               "effect's neutral plane as a share of the "
-                                               "building's height, drawn in this range")
-    floor_sigma_pa: float = Field(2.0, ge=0, description="1-sigma of a per-floor offset "
-                                  "(ventilation zones), drawn per floor [Pa]")
-    ventilation_rw_pa_per_sqrt_s: float = Field(0.05, ge=0, description="random walk of the "
-                                                "inside pressure [Pa/sqrt(s)]")
-    door_rate_per_min: float = Field(1.0, ge=0, description="door openings per minute "
-                                     "(Poisson), each a step of the inside pressure")
-    door_step_pa: float = Field(3.0, ge=0, description="1-sigma of a door opening's step [Pa]")
-    door_open_s: float = Field(30.0, gt=0, description="mean time a door stays open [s]")
-    fire_pa: float = Field(10.0, ge=0, description="overpressure within a metre of a burning "
-                           "fire zone [Pa]")
-    reference: bool = Field(True, description="a reference barometer (device base/baro, the "
-                            "worn ones' model) outside the first entrance, 1 m up")
-    reference_rate_hz: float = Field(1.0, gt=0, le=50, description="its reading rate")
+    sea_level_pa: tuple[float, float] = Field((99_000.0, 103_000.0))
+    """sea-level pressure at the start, drawn in this range [Pa]"""
+    trend_pa_per_h: float = Field(50.0, ge=0)
+    """1-sigma of the weather's linear trend, drawn per seed [Pa/h] (a front: 100-300 Pa/h)"""
+    weather_rw_pa_per_sqrt_s: float = Field(0.05, ge=0)
+    """weather random walk [Pa/sqrt(s)]"""
+    site_elevation_m: float | None = Field(None)
+    """height of building z = 0 above sea level [m] (default: the plan's georef altitude, else 0)"""
+    outside_c: tuple[float, float] = Field((-5.0, 25.0))
+    """outside air temperature, drawn in this range [C]"""
+    inside_c: float = Field(20.0, ge=-20, le=80)
+    """inside air temperature [C]"""
+    neutral_plane: tuple[float, float] = Field((0.3, 0.7))
+    """height of the stack effect's neutral plane as a share of the building's height, drawn in
+    this range"""
+    floor_sigma_pa: float = Field(2.0, ge=0)
+    """1-sigma of a per-floor offset (ventilation zones), drawn per floor [Pa]"""
+    ventilation_rw_pa_per_sqrt_s: float = Field(0.05, ge=0)
+    """random walk of the inside pressure [Pa/sqrt(s)]"""
+    door_rate_per_min: float = Field(1.0, ge=0)
+    """door openings per minute (Poisson), each a step of the inside pressure"""
+    door_step_pa: float = Field(3.0, ge=0)
+    """1-sigma of a door opening's step [Pa]"""
+    door_open_s: float = Field(30.0, gt=0)
+    """mean time a door stays open [s]"""
+    fire_pa: float = Field(10.0, ge=0)
+    """overpressure within a metre of a burning fire zone [Pa]"""
+    reference: bool = Field(True)
+    """a reference barometer (device base/baro, the worn ones' model) outside the first entrance, 1
+    m up"""
+    reference_rate_hz: float = Field(1.0, gt=0, le=50)
+    """its reading rate"""
 
 
 class Environment(_Model):
-    gravity: float = Field(9.81, gt=9.7, lt=9.9, description="local gravity [m/s^2]")
-    earth_rate: bool = Field(True, description="include the Earth rotation in the gyros")
-    latitude_deg: float | None = Field(None, ge=-90, le=90, description="default: the "
-                                       "building's georef latitude, else 50")
+    gravity: float = Field(9.81, gt=9.7, lt=9.9)
+    """local gravity [m/s^2]"""
+    earth_rate: bool = Field(True)
+    """include the Earth rotation in the gyros"""
+    latitude_deg: float | None = Field(None, ge=-90, le=90)
+    """default: the building's georef latitude, else 50"""
     magnetic: Magnetic = Magnetic()
     temperature: Temperature = Temperature()
     pressure: Pressure = Pressure()
@@ -119,32 +128,42 @@ class Fire(_Model):
     floor: int = 0
     position: XY
     radius_m: float = Field(3.0, gt=0)
-    loss_db_per_m: float = Field(3.0, ge=0, description="extra path loss inside the zone")
-    fading_db: float = Field(4.0, ge=0, description="extra fading std of links through it")
+    loss_db_per_m: float = Field(3.0, ge=0)
+    """extra path loss inside the zone"""
+    fading_db: float = Field(4.0, ge=0)
+    """extra fading std of links through it"""
     start_s: float = Field(0.0, ge=0)
 
 
 class Radio(_Model):
     """2.4 GHz breadcrumb radio links (log-distance path loss, breadcrumb paper Sec. V)."""
 
-    rssi_1m_dbm: float = Field(-40.0, description="RSSI at 1 m (paper Fig. 7: > -40 dBm at "
-                               "encounters within about 1 m)")
-    exponent: float = Field(2.8, gt=1, lt=6, description="path-loss exponent")
-    wall_db: float = Field(4.0, ge=0, description="loss per wall crossed")
-    floor_db: float = Field(15.0, ge=0, description="loss per floor crossed")
-    shadowing_db: float = Field(4.0, ge=0, description="log-normal shadowing std")
-    shadowing_m: float = Field(3.0, gt=0, description="shadowing decorrelation distance")
-    fading_db: float = Field(2.5, ge=0, description="per-packet fading std")
-    body_db: float = Field(6.0, ge=0, description="extra loss when the wearer's body is "
-                           "between antenna and peer")
-    sensitivity_dbm: float = Field(-95.0, description="packets weaker than this are lost")
-    packet_rate_hz: float = Field(1.0, gt=0, le=50, description="packets per node per second")
-    base_station: str | None = Field("base", description="building anchor id of the base "
-                                     "station (root of the breadcrumb chain), or null")
-    draw: bool = Field(False, description="draw the RSSI at 1 m, exponent, wall and floor "
-                       "loss, shadowing and fading per building and seed (ranges: "
-                       "simulator/radio.py RADIO_RANGES) instead of the values above, so "
-                       "that no estimator can be tuned to the simulator's")
+    rssi_1m_dbm: float = Field(-40.0)
+    """RSSI at 1 m (paper Fig. 7: > -40 dBm at encounters within about 1 m)"""
+    exponent: float = Field(2.8, gt=1, lt=6)
+    """path-loss exponent"""
+    wall_db: float = Field(4.0, ge=0)
+    """loss per wall crossed"""
+    floor_db: float = Field(15.0, ge=0)
+    """loss per floor crossed"""
+    shadowing_db: float = Field(4.0, ge=0)
+    """log-normal shadowing std"""
+    shadowing_m: float = Field(3.0, gt=0)
+    """shadowing decorrelation distance"""
+    fading_db: float = Field(2.5, ge=0)
+    """per-packet fading std"""
+    body_db: float = Field(6.0, ge=0)
+    """extra loss when the wearer's body is between antenna and peer"""
+    sensitivity_dbm: float = Field(-95.0)
+    """packets weaker than this are lost"""
+    packet_rate_hz: float = Field(1.0, gt=0, le=50)
+    """packets per node per second"""
+    base_station: str | None = Field("base")
+    """building anchor id of the base station (root of the breadcrumb chain), or null"""
+    draw: bool = Field(False)
+    """draw the RSSI at 1 m, exponent, wall and floor loss, shadowing and fading per building and
+    seed (ranges: simulator/radio.py RADIO_RANGES) instead of the values above, so that no
+    estimator can be tuned to the simulator's"""
 
 
 class AnchorSpec(_Model):
@@ -188,7 +207,8 @@ class RoomSplit(_Model):
     room: str
     across: Literal["x", "y"] = "x"
     at: float = Field(0.5, gt=0.1, lt=0.9)
-    door_at: float = Field(0.5, ge=0.1, le=0.9, description="door along the partition (0..1)")
+    door_at: float = Field(0.5, ge=0.1, le=0.9)
+    """door along the partition (0..1)"""
     door_width: float = Field(0.9, ge=0.6, le=2.0)
 
 
@@ -262,19 +282,23 @@ class ImuConfig(_Model):
 
     grade: str = "industrial"
     errors: ImuErrors = "as_worn"
-    switch_on_s: float = Field(0.0, ge=0, description="when the unit is switched on [s]: it "
-                               "records from then (a firefighter who goes in later switches "
-                               "it on at the door: no still start to calibrate on)")
+    switch_on_s: float = Field(0.0, ge=0)
+    """when the unit is switched on [s]: it records from then (a firefighter who goes in later
+    switches it on at the door: no still start to calibrate on)"""
     rate_hz: float = Field(100.0, ge=50, le=1000)
-    axes: str = Field("FLU", description="device axes on the foot, e.g. FLU or FRD (z down)")
-    mount_deg: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="roll, pitch, "
-                                                  "yaw of the device on the boot [deg]")
-    mount: MountConfig | None = Field(MountConfig(), description="compliance of the "
-                                      "attachment (null: rigidly on the foot)")
+    axes: str = Field("FLU")
+    """device axes on the foot, e.g. FLU or FRD (z down)"""
+    mount_deg: tuple[float, float, float] = Field((0.0, 0.0, 0.0))
+    """roll, pitch, yaw of the device on the boot [deg]"""
+    mount: MountConfig | None = Field(MountConfig())
+    """compliance of the attachment (null: rigidly on the foot)"""
     magnetometer: bool = False
-    gyro: dict[str, float] = Field(default_factory=dict, description="GyroSpec overrides")
-    accel: dict[str, float] = Field(default_factory=dict, description="AccelSpec overrides")
-    mag: dict[str, float] = Field(default_factory=dict, description="MagSpec overrides")
+    gyro: dict[str, float] = Field(default_factory=dict)
+    """GyroSpec overrides"""
+    accel: dict[str, float] = Field(default_factory=dict)
+    """AccelSpec overrides"""
+    mag: dict[str, float] = Field(default_factory=dict)
+    """MagSpec overrides"""
 
     @field_validator("grade")
     @classmethod
@@ -311,28 +335,40 @@ class ImuConfig(_Model):
 class UwbConfig(_Model):
     """A UWB tag ranging to fixed anchors (DW1000 class, ORCA paper Sec. 3.1)."""
 
-    anchors: list[str] | None = Field(None, description="anchor ids (default: every uwb anchor)")
+    anchors: list[str] | None = Field(None)
+    """anchor ids (default: every uwb anchor)"""
     rate_hz: float = Field(2.0, gt=0, le=50)
-    sigma_m: float = Field(0.10, gt=0, description="line-of-sight range noise")
-    nlos_bias_m: float = Field(0.30, ge=0, description="mean extra delay per wall (positive)")
-    nlos_sigma_m: float = Field(0.25, ge=0, description="extra noise per wall")
+    sigma_m: float = Field(0.10, gt=0)
+    """line-of-sight range noise"""
+    nlos_bias_m: float = Field(0.30, ge=0)
+    """mean extra delay per wall (positive)"""
+    nlos_sigma_m: float = Field(0.25, ge=0)
+    """extra noise per wall"""
     outlier_prob: float = Field(0.01, ge=0, le=0.5)
     dropout_prob: float = Field(0.02, ge=0, le=1)
     dropout_per_wall: float = Field(0.08, ge=0, le=1)
     max_range_m: float = Field(40.0, gt=0)
-    height_m: float = Field(1.4, ge=0, le=3, description="tag height on the body")
+    height_m: float = Field(1.4, ge=0, le=3)
+    """tag height on the body"""
 
 
 class RfidConfig(_Model):
     """An RFID reader (and, with ``deploy``, a tag dispenser) on the firefighter."""
 
-    deploy: bool = Field(False, description="stick a tag on each new door / stair end passed")
-    pause_s: float = Field(3.0, ge=0, le=30, description="stop to stick a tag")
-    range_m: float = Field(1.5, gt=0, le=10, description="read range")
-    rate_hz: float = Field(5.0, gt=0, le=100, description="read attempts per second")
-    window_s: float = Field(1.0, gt=0, description="reads aggregated into one detection")
-    reader_height_m: float = Field(1.2, ge=0, le=3, description="reader on the body")
-    tag_height_m: float = Field(2.0, ge=0, le=4, description="tags at the top of the jamb")
+    deploy: bool = Field(False)
+    """stick a tag on each new door / stair end passed"""
+    pause_s: float = Field(3.0, ge=0, le=30)
+    """stop to stick a tag"""
+    range_m: float = Field(1.5, gt=0, le=10)
+    """read range"""
+    rate_hz: float = Field(5.0, gt=0, le=100)
+    """read attempts per second"""
+    window_s: float = Field(1.0, gt=0)
+    """reads aggregated into one detection"""
+    reader_height_m: float = Field(1.2, ge=0, le=3)
+    """reader on the body"""
+    tag_height_m: float = Field(2.0, ge=0, le=4)
+    """tags at the top of the jamb"""
 
 
 class DispenserConfig(_Model):
@@ -340,42 +376,51 @@ class DispenserConfig(_Model):
     from the wearer to the last node of the chain gets weak."""
 
     capacity: int = Field(6, ge=1, le=100)
-    drop_below_dbm: float = Field(-80.0, description="drop when the averaged RSSI to the "
-                                  "chain falls below this")
+    drop_below_dbm: float = Field(-80.0)
+    """drop when the averaged RSSI to the chain falls below this"""
     average_packets: int = Field(3, ge=1, le=50)
     min_spacing_m: float = Field(3.0, ge=0)
-    faults: BreadcrumbFaults | None = Field(None, description="kicked, burned, lost "
-                                            "breadcrumbs (default: none)")
+    faults: BreadcrumbFaults | None = Field(None)
+    """kicked, burned, lost breadcrumbs (default: none)"""
 
 
 class BreadcrumbFaults(_Model):
     """What happens to breadcrumbs once dropped (each drawn per breadcrumb and seed)."""
 
-    dud: float = Field(0.0, ge=0, le=1, description="share that never transmit (broken in "
-                       "the drop)")
-    kick: float = Field(0.0, ge=0, le=1, description="chance that a firefighter passing "
-                        "within 0.7 m kicks it along the way they walk")
-    kick_m: tuple[float, float] = Field((0.5, 3.0), description="how far a kick sends it [m]")
-    lost_per_min: float = Field(0.0, ge=0, le=1, description="chance per minute that it "
-                                "stops (battery, water, crushed)")
-    burn: bool = Field(True, description="one inside a fire zone dies 60-180 s after the "
-                       "fire reaches it")
+    dud: float = Field(0.0, ge=0, le=1)
+    """share that never transmit (broken in the drop)"""
+    kick: float = Field(0.0, ge=0, le=1)
+    """chance that a firefighter passing within 0.7 m kicks it along the way they walk"""
+    kick_m: tuple[float, float] = Field((0.5, 3.0))
+    """how far a kick sends it [m]"""
+    lost_per_min: float = Field(0.0, ge=0, le=1)
+    """chance per minute that it stops (battery, water, crushed)"""
+    burn: bool = Field(True)
+    """one inside a fire zone dies 60-180 s after the fire reaches it"""
 
 
 class BarometerConfig(_Model):
     """A worn MEMS barometer: a named part (:data:`~.barometer.BAROMETER_MODELS`, its
     datasheet figures) with optional overrides, its rate and where it is worn."""
 
-    model: str = Field("ms5611", description="named part (simulator/barometer.py)")
-    rate_hz: float = Field(10.0, gt=0, description="readings per second")
-    height_m: float = Field(1.3, ge=0, le=2.5, description="above the floor when standing "
-                            "(shoulder strap, SCBA); 40 % of it crawling, 60 % kneeling")
-    switch_on_s: float = Field(0.0, ge=0, description="when it starts reading [s]")
-    noise_pa: float | None = Field(None, ge=0, description="override: white noise [Pa]")
-    resolution_pa: float | None = Field(None, ge=0, description="override: output step [Pa]")
-    offset_pa: float | None = Field(None, ge=0, description="override: offset range [Pa]")
-    drift_pa_per_sqrt_s: float | None = Field(None, ge=0, description="override: drift")
-    latency_s: float | None = Field(None, ge=0, le=2, description="override: latency [s]")
+    model: str = Field("ms5611")
+    """named part (simulator/barometer.py)"""
+    rate_hz: float = Field(10.0, gt=0)
+    """readings per second"""
+    height_m: float = Field(1.3, ge=0, le=2.5)
+    """above the floor when standing (shoulder strap, SCBA); 40 % of it crawling, 60 % kneeling"""
+    switch_on_s: float = Field(0.0, ge=0)
+    """when it starts reading [s]"""
+    noise_pa: float | None = Field(None, ge=0)
+    """override: white noise [Pa]"""
+    resolution_pa: float | None = Field(None, ge=0)
+    """override: output step [Pa]"""
+    offset_pa: float | None = Field(None, ge=0)
+    """override: offset range [Pa]"""
+    drift_pa_per_sqrt_s: float | None = Field(None, ge=0)
+    """override: drift"""
+    latency_s: float | None = Field(None, ge=0, le=2)
+    """override: latency [s]"""
 
     @field_validator("model")
     @classmethod
@@ -406,13 +451,13 @@ class BarometerConfig(_Model):
 
 class Sensors(_Model):
     imu: ImuConfig | None = ImuConfig()
-    barometer: BarometerConfig | None = Field(None, description="a worn barometer "
-                                              "(default: none)")
+    barometer: BarometerConfig | None = Field(None)
+    """a worn barometer (default: none)"""
     uwb: UwbConfig | None = None
     rfid: RfidConfig | None = None
     dispenser: DispenserConfig | None = None
-    radio: bool | None = Field(None, description="carries a radio node (default: when the "
-                               "scenario has breadcrumbs)")
+    radio: bool | None = Field(None)
+    """carries a radio node (default: when the scenario has breadcrumbs)"""
 
 
 # -- plans ------------------------------------------------------------------------------
@@ -429,24 +474,24 @@ class Stops(_Model):
 class Deviations(_Model):
     """How a real searcher departs from the clean hand-on-wall loop (drawn per seed)."""
 
-    skip_rooms: float = Field(0.0, ge=0, le=1, description="share of the rooms (not "
-                              "corridors, not the one the search starts in) left out: their "
-                              "doors are passed by")
-    coverage: float = Field(1.0, gt=0, le=1, description="share of the loop searched "
-                            "before the search ends (a search cut short)")
-    leave_wall: float = Field(0.0, ge=0, le=1, description="chance, every 4 m, of leaving "
-                              "the wall: 3-8 m of the loop replaced by a straight line "
-                              "across the room when that is at least 25 % shorter")
-    backtrack_every_m: float | None = Field(None, gt=2, description="about this often, go "
-                                            "back the way one came and on again")
+    skip_rooms: float = Field(0.0, ge=0, le=1)
+    """share of the rooms (not corridors, not the one the search starts in) left out: their doors
+    are passed by"""
+    coverage: float = Field(1.0, gt=0, le=1)
+    """share of the loop searched before the search ends (a search cut short)"""
+    leave_wall: float = Field(0.0, ge=0, le=1)
+    """chance, every 4 m, of leaving the wall: 3-8 m of the loop replaced by a straight line across
+    the room when that is at least 25 % shorter"""
+    backtrack_every_m: float | None = Field(None, gt=2)
+    """about this often, go back the way one came and on again"""
     backtrack_m: tuple[float, float] = (1.0, 4.0)
-    sweep_every_m: float | None = Field(None, gt=1, description="about this often, stop "
-                                        "and sweep the floor ahead with the foot")
+    sweep_every_m: float | None = Field(None, gt=1)
+    """about this often, stop and sweep the floor ahead with the foot"""
     sweep_s: tuple[float, float] = (3.0, 8.0)
-    crawl_share: float = Field(0.0, ge=0, le=1, description="share of the path crawled, "
-                               "in pieces of 3-8 m")
-    run_in_corridors: bool = Field(False, description="corridor stretches over 5 m are run "
-                                   "(gait run)")
+    crawl_share: float = Field(0.0, ge=0, le=1)
+    """share of the path crawled, in pieces of 3-8 m"""
+    run_in_corridors: bool = Field(False)
+    """corridor stretches over 5 m are run (gait run)"""
 
 
 class Target(_Model):
@@ -479,17 +524,21 @@ class Search(_Model):
     """Directional (hand-on-wall) search from where the agent stands."""
 
     hand: Literal["right", "left"] = "right"
-    rooms: list[str] | None = Field(None, description="limit to these rooms (default: floor)")
-    closed_doors: list[str] = Field(default_factory=list, description="doors treated as walls")
-    offset_m: float = Field(0.5, ge=0.25, le=1.5, description="body to wall distance")
+    rooms: list[str] | None = Field(None)
+    """limit to these rooms (default: floor)"""
+    closed_doors: list[str] = Field(default_factory=list)
+    """doors treated as walls"""
+    offset_m: float = Field(0.5, ge=0.25, le=1.5)
+    """body to wall distance"""
     gait: str = "search"
     laps: float = Field(1.0, gt=0, le=20)
-    length_m: float | None = Field(None, gt=0, description="stop after this distance")
+    length_m: float | None = Field(None, gt=0)
+    """stop after this distance"""
     stops: Stops | None = None
-    kneel_at_doors_s: float = Field(0.0, ge=0, le=60, description="kneel this long in each "
-                                    "doorway before going through (flashover drill, Sec. II)")
-    deviate: Deviations | None = Field(None, description="how the searcher departs from "
-                                       "the clean loop (default: not at all)")
+    kneel_at_doors_s: float = Field(0.0, ge=0, le=60)
+    """kneel this long in each doorway before going through (flashover drill, Sec. II)"""
+    deviate: Deviations | None = Field(None)
+    """how the searcher departs from the clean loop (default: not at all)"""
 
 
 class CompartmentalSearch(_Model):
@@ -497,8 +546,8 @@ class CompartmentalSearch(_Model):
     coming back the same way (search-pattern paper, Sec. II)."""
 
     hand: Literal["right", "left"] = "right"
-    rooms: list[str] | None = Field(None, description="rooms to search (default: all "
-                                    "reachable)")
+    rooms: list[str] | None = Field(None)
+    """rooms to search (default: all reachable)"""
     offset_m: float = Field(0.5, ge=0.25, le=1.5)
     gait: str = "search"
     stops: Stops | None = None
@@ -506,7 +555,8 @@ class CompartmentalSearch(_Model):
 
 class Stairs(_Model):
     to_floor: int
-    backwards: bool = Field(False, description="descend backwards (firefighter practice)")
+    backwards: bool = Field(False)
+    """descend backwards (firefighter practice)"""
 
 
 class Turn(_Model):
@@ -549,8 +599,8 @@ class Start(_Model):
     position: XY | None = None
     floor: int = 0
     heading_deg: float | None = None
-    time_s: float = Field(5.0, ge=0, description="the plan starts here; before it the "
-                          "firefighter stands still (IMU alignment)")
+    time_s: float = Field(5.0, ge=0)
+    """the plan starts here; before it the firefighter stands still (IMU alignment)"""
 
 
 class Follow(_Model):
@@ -573,18 +623,19 @@ class AgentSpec(_Model):
 class ScenarioModel(_Model):
     name: str = ""
     description: str = ""
-    family: str = Field("", description="the group `firenav simulate --list` shows it in "
-                        "(paper, field, twin, demo)")
-    building: str = Field(description="the plan the pipeline is given")
-    world: World | None = Field(None, description="how the real building differs from it "
-                                "(default: not at all)")
+    family: str = Field("")
+    """the group `firenav simulate --list` shows it in (paper, field, twin, demo)"""
+    building: str = Field()
+    """the plan the pipeline is given"""
+    world: World | None = Field(None)
+    """how the real building differs from it (default: not at all)"""
     duration_s: float | None = Field(None, gt=0)
     truth_rate_hz: float = Field(20.0, gt=0, le=200)
-    end_still_s: float = Field(3.0, ge=0, description="still time after the last plan ends")
-    foot_model: Literal["realistic", "ideal"] = Field(
-        "realistic", description="realistic: the foot rolls over heel and ball and the IMU "
-        "sits on a compliant boot; ideal: the foot lifts off and lands flat and the IMU is "
-        "rigid on it (every IMU's mount is ignored)")
+    end_still_s: float = Field(3.0, ge=0)
+    """still time after the last plan ends"""
+    foot_model: Literal["realistic", "ideal"] = Field("realistic")
+    """realistic: the foot rolls over heel and ball and the IMU sits on a compliant boot; ideal:
+    the foot lifts off and lands flat and the IMU is rigid on it (every IMU's mount is ignored)"""
     gaits: dict[str, dict[str, Any]] = Field(default_factory=dict)
     environment: Environment = Environment()
     radio: Radio = Radio()
