@@ -34,11 +34,11 @@ import sys
 from pathlib import Path
 
 from .bundled import DATA_DIR
-from .sketch import PlanSketch
+from .sketch import INTERIOR_DOOR, PlanSketch
 
 __all__ = ["PLANS", "write_all"]
 
-DOOR = 0.9      # interior door width [m]
+DOOR = INTERIOR_DOOR
 EXIT = 1.2      # exterior door width [m]
 NORTH, EAST = (0.0, 1.0), (1.0, 0.0)
 
@@ -70,13 +70,8 @@ def area_250() -> PlanSketch:
     sk = PlanSketch("area_250")
     f = sk.floor(0.0, 3.0, "ground")
     f.room("corridor", (0.0, 4.5, 23.0, 6.5), "corridor", use="corridor")
-    south = [0.0, 4.0, 7.5, 11.0, 15.0, 19.0, 23.0]
-    for k, (x0, x1) in enumerate(zip(south, south[1:]), 1):
-        f.room(f"s{k}", (x0, 0.0, x1, 4.5), f"room S{k}")
-        f.door(f"d_s{k}", (x1 - 0.8, 4.5), DOOR, NORTH)
-    north = [0.0, 5.0, 8.0, 11.0, 15.0, 19.0, 23.0]
-    for k, (x0, x1) in enumerate(zip(north, north[1:]), 1):
-        f.room(f"n{k}", (x0, 6.5, x1, 11.0), f"room N{k}")
+    f.room_row("s", [0.0, 4.0, 7.5, 11.0, 15.0, 19.0, 23.0], 0.0, 4.5, "room S", door_at=-0.8)
+    f.room_row("n", [0.0, 5.0, 8.0, 11.0, 15.0, 19.0, 23.0], 6.5, 11.0, "room N")
     f.door("d_n1", (4.2, 6.5), DOOR, NORTH)
     f.door("d_n1_n2", (5.0, 9.5), DOOR, EAST)          # N2 is only reached through N1
     f.door("d_n3", (9.0, 6.5), DOOR, NORTH)
@@ -128,14 +123,9 @@ def corridor() -> PlanSketch:
     sk = PlanSketch("corridor")
     f = sk.floor(0.0, 3.0, "ground")
     f.room("corridor", (0.0, 6.9, 40.0, 9.9), "corridor", use="corridor")
-    south = [0.0, 6.0, 12.0, 18.0, 26.0, 32.0, 40.0]
-    for k, (x0, x1) in enumerate(zip(south, south[1:]), 1):
-        f.room(f"s{k}", (x0, 0.0, x1, 6.9), f"room S{k}")
-        f.door(f"d_s{k}", (x0 + 1.2, 6.9), DOOR, NORTH)
-    north = [0.0, 5.0, 10.0, 15.0, 21.0, 27.0, 33.0, 40.0]
-    for k, (x0, x1) in enumerate(zip(north, north[1:]), 1):
-        f.room(f"n{k}", (x0, 9.9, x1, 15.9), f"room N{k}")
-        f.door(f"d_n{k}", (x1 - 1.0, 9.9), DOOR, NORTH)
+    f.room_row("s", [0.0, 6.0, 12.0, 18.0, 26.0, 32.0, 40.0], 0.0, 6.9, "room S", door_at=1.2)
+    f.room_row("n", [0.0, 5.0, 10.0, 15.0, 21.0, 27.0, 33.0, 40.0], 9.9, 15.9, "room N",
+               door_at=-1.0, door_y=9.9)
     # S4 is the furnished compartment of Test III: desks, a table and cupboards.
     f.obstacle("s4_table", (20.5, 2.5, 23.5, 4.0))
     f.obstacle("s4_desk1", (18.0, 0.0, 19.6, 0.8))

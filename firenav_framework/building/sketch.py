@@ -22,6 +22,8 @@ from .model import Building
 __all__ = ["PlanSketch", "FloorSketch"]
 
 Point = tuple[float, float]
+#: Width of an interior door [m] where a sketch does not say.
+INTERIOR_DOOR = 0.9
 
 
 def _r(v) -> list:
@@ -44,6 +46,20 @@ class FloorSketch:
         """A room from a box (x0, y0, x1, y1) or a polygon's vertex list; its outline is walled."""
         poly = _polygon(shape) if not holes else Polygon(shape, holes)
         self.rooms.append((id, poly, name, use))
+        return self
+
+    def room_row(self, prefix: str, xs: Sequence[float], y0: float, y1: float, label: str,
+                 door_at: float | None = None, door_y: float | None = None) -> "FloorSketch":
+        """Rooms side by side between consecutive ``xs`` [m], from ``y0`` to ``y1``: ids
+        ``<prefix>1, <prefix>2, ...``, names ``<label>1, ...``. With ``door_at``, each has a
+        door ``d_<prefix>k`` in its wall at ``door_y``, crossed north-south, centred
+        ``door_at`` metres from the room's west end (>= 0) or its east end (< 0)."""
+        for k, (x0, x1) in enumerate(zip(xs, xs[1:]), 1):
+            self.room(f"{prefix}{k}", (x0, y0, x1, y1), f"{label}{k}")
+            if door_at is not None:
+                x = x0 + door_at if door_at >= 0 else x1 + door_at
+                self.door(f"d_{prefix}{k}", (x, y1 if door_y is None else door_y), INTERIOR_DOOR,
+                          (0.0, 1.0))
         return self
 
     def wall(self, *points: Point) -> "FloorSketch":

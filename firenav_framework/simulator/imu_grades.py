@@ -42,7 +42,20 @@ class _Spec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
 
-class GyroSpec(_Spec):
+class _AxisSpec(_Spec):
+    """The errors a gyroscope and an accelerometer axis have in common."""
+
+    bias_tau_s: float = Field(100.0, gt=0)
+    """bias correlation time [s]"""
+    scale_factor_pct: float = Field(0.1, ge=0)
+    """[%]"""
+    nonlinearity_pct: float = Field(0.0, ge=0)
+    """[% of full scale]"""
+    misalignment_deg: float = Field(0.1, ge=0)
+    """cross-axis [deg]"""
+
+
+class GyroSpec(_AxisSpec):
     """Gyroscope errors per axis, datasheet units."""
 
     range_dps: float = Field(2000.0, gt=0)
@@ -51,20 +64,12 @@ class GyroSpec(_Spec):
     """[deg/s/sqrt(Hz)]"""
     bias_instability_dph: float = Field(10.0, ge=0)
     """Allan floor [deg/h]"""
-    bias_tau_s: float = Field(100.0, gt=0)
-    """bias correlation time [s]"""
     rate_random_walk_dps_rts: float = Field(0.0, ge=0)
     """[deg/s/sqrt(s)]"""
     turn_on_bias_dps: float = Field(0.1, ge=0)
     """bias repeatability [deg/s]"""
     thermal_drift_dps_per_k: float = Field(0.0, ge=0)
     """[deg/s/K]"""
-    scale_factor_pct: float = Field(0.1, ge=0)
-    """[%]"""
-    nonlinearity_pct: float = Field(0.0, ge=0)
-    """[% of full scale]"""
-    misalignment_deg: float = Field(0.1, ge=0)
-    """cross-axis [deg]"""
     g_sensitivity_dps_per_g: float = Field(0.0, ge=0)
     """[deg/s/g]"""
     vibration_bias_dps: float = Field(0.0, ge=0)
@@ -73,7 +78,7 @@ class GyroSpec(_Spec):
     """quantisation step [deg/s]"""
 
 
-class AccelSpec(_Spec):
+class AccelSpec(_AxisSpec):
     """Accelerometer errors per axis, datasheet units."""
 
     range_g: float = Field(16.0, gt=0)
@@ -82,20 +87,12 @@ class AccelSpec(_Spec):
     """[ug/sqrt(Hz)]"""
     bias_instability_ug: float = Field(30.0, ge=0)
     """Allan floor [ug]"""
-    bias_tau_s: float = Field(100.0, gt=0)
-    """bias correlation time [s]"""
     random_walk_ug_rts: float = Field(0.0, ge=0)
     """bias random walk [ug/sqrt(s)]"""
     turn_on_bias_mg: float = Field(2.0, ge=0)
     """bias repeatability [mg]"""
     thermal_drift_mg_per_k: float = Field(0.0, ge=0)
     """[mg/K]"""
-    scale_factor_pct: float = Field(0.1, ge=0)
-    """[%]"""
-    nonlinearity_pct: float = Field(0.0, ge=0)
-    """[% of full scale]"""
-    misalignment_deg: float = Field(0.1, ge=0)
-    """cross-axis [deg]"""
     resolution_mg: float = Field(0.0, ge=0)
     """quantisation step [mg]"""
 
