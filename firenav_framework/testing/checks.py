@@ -295,7 +295,8 @@ def parameter_problems(model: type[BaseModel]) -> list[str]:
         angle = _angle_kind(info)
         words = set(leaf.split("_"))
         if not (info.description or "").strip():
-            problems.append(f"{name}: no description")
+            problems.append(f"{name}: no description (a docstring right below the "
+                            f"parameter, or param(description=...))")
         if _DEGREES_NAME.search(leaf) or (unit or "").strip().lower() in _DEGREE_UNITS:
             problems.append(f"{name}: degrees (parameters are SI: declare it Angle or "
                             f"AngularRate, in radians; YAML may still say '5 deg')")

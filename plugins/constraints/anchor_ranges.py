@@ -23,9 +23,9 @@ __all__ = ["AnchorRangeInput", "AnchorRanges", "TagParams"]
 class TagParams(Params):
     """The worn UWB tag, as every constraint that reads anchor ranges needs it."""
 
-    tag_height: float = param(1.4, unit="m", description="height of the UWB tag above the "
-                              "floor (worn on the chest or shoulder), for the expected "
-                              "range to an anchor")
+    tag_height: float = param(1.4, unit="m")
+    """height of the UWB tag above the floor (worn on the chest or shoulder), for the expected
+    range to an anchor"""
 
 
 class AnchorRanges:

@@ -93,10 +93,14 @@ def test_parameter_docs_cover_nested_groups_units_and_degrees():
         max_range: float = param(5.0, unit="m", description="fine")
         distance_ratio: float = param(0.1, description="a ratio: no unit needed")
         count: int = param(3, description="an integer count: no unit needed")
+        documented: float = param(1.0, unit="m")
+        """described by its docstring"""
 
+    assert P.model_fields["documented"].description == "described by its docstring"
+    missing = "no description (a docstring right below the parameter, or param(description=...))"
     assert parameter_problems(P) == [
-        "detector.threshold: no description",
-        "groups.threshold: no description",
+        f"detector.threshold: {missing}",
+        f"groups.threshold: {missing}",
         "yaw_offset: an Angle needs unit='rad', has None",
         "turn_deg: degrees (parameters are SI: declare it Angle or AngularRate, in radians; "
         "YAML may still say '5 deg')",

@@ -2,6 +2,8 @@
 conformance suite: the templates are working plugins, not sketches."""
 from __future__ import annotations
 
+import importlib
+
 import pytest
 
 from firenav_framework.messages import GroundTruth, PoseEstimate
@@ -67,12 +69,14 @@ def test_codec_template_conforms(tmp_path):
                        "deterministic": "passed"}
 
 
-def test_the_readme_vendor_example_conforms():
+def test_the_readme_vendor_example_conforms(tmp_path, monkeypatch):
+    """The example as a vendor would use it: saved as a module and imported (its parameter
+    descriptions are the docstrings in that file)."""
     readme = (TEMPLATES.parent / "README.md").read_text()
     section = readme[readme.index("## Writing a sensor plugin"):]
     start = section.index("```python\n") + len("```python\n")
-    code = section[start:section.index("```\n", start)]
-    namespace: dict = {}
-    exec(compile(code, "README.md (vendor example)", "exec"), namespace)
-    rec = check_plugin(namespace["AcmeRangeSensor"])
+    (tmp_path / "acme_readme_sensor.py").write_text(section[start:section.index("```\n", start)])
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module("acme_readme_sensor")
+    rec = check_plugin(module.AcmeRangeSensor)
     assert rec.on("range")

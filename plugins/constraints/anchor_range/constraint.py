@@ -54,24 +54,23 @@ class AnchorRangeConstraint(AnchorRangeInput):
     name = "anchor_range"
 
     class Params(TagParams):
-        init_sigma: float = param(0.3, unit="m", gt=0, description="position uncertainty at "
-                                  "the first step (1 sigma, each axis)")
-        step_sigma: float = param(0.05, ge=0, description="position noise added per step and "
-                                  "axis, as a fraction of the step length")
-        model_sigma: float = param(0.15, unit="m", ge=0, description="range model error "
-                                   "added (in quadrature) to each range's own sigma: tag "
-                                   "height, body and antenna delays, multipath in line of "
-                                   "sight")
-        gate: float = param(3.0, gt=0, description="ranges farther than this many sigmas from "
-                            "the prediction are dropped")
-        min_distance: float = param(1.0, unit="m", ge=0, description="horizontal distance to "
-                                    "the anchor below which a range is not used")
-        use_nlos: bool = param(False, description="use ranges the sensor flags NLOS (with "
-                               "their sigma)")
-        through_walls: bool = param(False, description="use ranges whose line of sight from "
-                                    "the estimated position crosses a wall of the plan")
-        max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this when "
-                               "their step comes are dropped")
+        init_sigma: float = param(0.3, unit="m", gt=0)
+        """position uncertainty at the first step (1 sigma, each axis)"""
+        step_sigma: float = param(0.05, ge=0)
+        """position noise added per step and axis, as a fraction of the step length"""
+        model_sigma: float = param(0.15, unit="m", ge=0)
+        """range model error added (in quadrature) to each range's own sigma: tag height, body and
+        antenna delays, multipath in line of sight"""
+        gate: float = param(3.0, gt=0)
+        """ranges farther than this many sigmas from the prediction are dropped"""
+        min_distance: float = param(1.0, unit="m", ge=0)
+        """horizontal distance to the anchor below which a range is not used"""
+        use_nlos: bool = param(False)
+        """use ranges the sensor flags NLOS (with their sigma)"""
+        through_walls: bool = param(False)
+        """use ranges whose line of sight from the estimated position crosses a wall of the plan"""
+        max_age: float = param(2.0, unit="s", gt=0)
+        """ranges older than this when their step comes are dropped"""
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)

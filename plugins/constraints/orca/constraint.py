@@ -136,87 +136,79 @@ class OrcaConstraint(AnchorRangeInput):
     name = "orca"
 
     class Params(TagParams):
-        radius: float = param(0.25, unit="m", gt=0, description="agent disc radius r_n "
-                              "(the paper does not state its value)")
-        time_horizon: float = param(2.0, unit="s", gt=0, description="obstacle time horizon "
-                                    "tau of the velocity obstacle (eq. 3); never below the "
-                                    "step duration")
-        min_rotation: Angle = param(math.radians(2.0), unit="rad", ge=0, description="smallest "
-                                    "correction stored in the update matrix (2 deg, §2.2)")
-        max_rotation: Angle = param(math.radians(30.0), unit="rad", gt=0, description="largest "
-                                    "correction taken as a heading error (30 deg, §2.2)")
-        door_angle: Angle = param(math.radians(90.0), unit="rad", gt=0, description="correction "
-                                  "angle that means a missed door (90 deg, §2.2)")
-        door_tolerance: Angle = param(math.radians(15.0), unit="rad", ge=0, description="+- band "
-                                      "around door_angle (15 deg, §2.2)")
-        max_speed: float = param(2.5, unit="m/s", gt=0, description="speed between the corrected "
-                                 "and the INS position above which the agent is in the wrong "
-                                 "compartment and is reset (\"unnatural for humans\", §2.2; "
-                                 "reset_from: fixed)")
-        reset_from: Literal["fixed", "ins_speed"] = param(
-            "ins_speed", description="wrong-compartment test: 'fixed' = speed from the agent "
-            "to the INS position above max_speed (§2.2); 'ins_speed' = that speed above the "
-            "INS's own speed for the step by more than reset_margin + reset_gate sigma")
-        reset_margin: float = param(1.3, unit="m/s", ge=0, description="lag speed beyond the "
-                                    "INS's speed that is implausible (ins_speed test)")
-        reset_gate: float = param(3.0, ge=0, description="sigmas of the INS step's own "
-                                  "uncertainty added to the margin (ins_speed test)")
-        reset_way: Literal["doors", "straight"] = param(
-            "doors", description="how a reset reaches the INS position: 'doors' = never "
-            "through a wall (by way of the doors, else refused); 'straight' = straight "
-            "there, through walls if need be (§2.2 as published)")
-        reset_max_detour: float = param(12.0, unit="m", ge=0, description="a reset whose "
-                                        "straight move crosses a wall goes by way of doors "
-                                        "only if that way is at most this much longer; "
-                                        "else it is refused")
-        door_search_radius: float = param(4.0, unit="m", gt=0, description="doors farther than "
-                                          "this from the agent are not candidates")
-        door_line_tolerance: float = param(0.3, unit="m", gt=0, description="a candidate "
-                                           "door's centre lies this close to the line of the "
-                                           "wall the step ran into")
-        door_range_gate: float = param(2.0, unit="m", gt=0, description="a door is taken "
-                                       "only if its expected range to each anchor is within "
-                                       "this of the measured range (plus 3 sigma)")
-        door_needs_range: bool = param(True, description="the missed-door rule fires only "
-                                       "with a fresh range to an anchor: without one a square "
-                                       "hit is as likely a walker overshooting a room's "
-                                       "corner, and a door the track really missed is caught "
-                                       "by the reset rule")
-        turn_guard: Angle | None = param(math.radians(30.0), unit="rad", gt=0, description=
-                                         "no rotation is stored while the INS heading or the "
-                                         "step direction turned more than this over the last "
-                                         "two steps (null: off)")
-        rotation_from: Literal["step", "heading"] = param(
-            "step", description="velocity whose ORCA rotation is stored: 'step' = the step "
-            "from the agent to the INS position (eq. 7, Figure 4); 'heading' = the same speed "
-            "along the INS heading, which ignores the sway of single strides")
-        door_pass: bool = param(True, description="a step whose line passes through a "
-                                "doorway while the disc clips a jamb is centred in the "
-                                "door (a translation) instead of being held or rotated")
-        min_step: float = param(0.2, unit="m", ge=0, description="a shorter move (a shuffle "
-                                "while standing) is only held at the wall: its direction "
-                                "says nothing about heading or doors")
-        range_max_age: float = param(2.0, unit="s", gt=0, description="ranges older than this "
-                                     "are not used to choose a door")
-        free_space_covariance: bool = param(True, description="every step not moved by a "
-                                            "jump reports what the walls around it know of "
-                                            "the position (along and across the heading: "
-                                            "somewhere between the walls either side), "
-                                            "fused by dead_reckoning into its covariance")
-        free_space_reach: float = param(10.0, unit="m", gt=0, description="an axis with no "
-                                        "wall within this on either side says nothing of "
-                                        "the position")
-        free_space_confidence: float = param(0.5, ge=0, le=1, description="the walls either "
-                                             "side hold the position on an axis only if the "
-                                             "estimator's covariance puts the walker between "
-                                             "them with at least this probability (else it "
-                                             "may be in another compartment)")
-        avoid_team: bool = param(False, description="team members are ORCA agents that avoid "
-                                 "each other (reciprocal lines, §2.2)")
-        team_time_horizon: float = param(2.0, unit="s", gt=0, description="time horizon for "
-                                         "agent-agent avoidance")
-        team_max_age: float = param(2.0, unit="s", gt=0, description="team members not updated "
-                                    "for this long are ignored")
+        radius: float = param(0.25, unit="m", gt=0)
+        """agent disc radius r_n (the paper does not state its value)"""
+        time_horizon: float = param(2.0, unit="s", gt=0)
+        """obstacle time horizon tau of the velocity obstacle (eq. 3); never below the step
+        duration"""
+        min_rotation: Angle = param(math.radians(2.0), unit="rad", ge=0)
+        """smallest correction stored in the update matrix (2 deg, §2.2)"""
+        max_rotation: Angle = param(math.radians(30.0), unit="rad", gt=0)
+        """largest correction taken as a heading error (30 deg, §2.2)"""
+        door_angle: Angle = param(math.radians(90.0), unit="rad", gt=0)
+        """correction angle that means a missed door (90 deg, §2.2)"""
+        door_tolerance: Angle = param(math.radians(15.0), unit="rad", ge=0)
+        """+- band around door_angle (15 deg, §2.2)"""
+        max_speed: float = param(2.5, unit="m/s", gt=0)
+        """speed between the corrected and the INS position above which the agent is in the wrong
+        compartment and is reset ("unnatural for humans", §2.2; reset_from: fixed)"""
+        reset_from: Literal["fixed", "ins_speed"] = param("ins_speed")
+        """wrong-compartment test: 'fixed' = speed from the agent to the INS position above
+        max_speed (§2.2); 'ins_speed' = that speed above the INS's own speed for the step by
+        more than reset_margin + reset_gate sigma"""
+        reset_margin: float = param(1.3, unit="m/s", ge=0)
+        """lag speed beyond the INS's speed that is implausible (ins_speed test)"""
+        reset_gate: float = param(3.0, ge=0)
+        """sigmas of the INS step's own uncertainty added to the margin (ins_speed test)"""
+        reset_way: Literal["doors", "straight"] = param("doors")
+        """how a reset reaches the INS position: 'doors' = never through a wall (by way of the
+        doors, else refused); 'straight' = straight there, through walls if need be (§2.2 as
+        published)"""
+        reset_max_detour: float = param(12.0, unit="m", ge=0)
+        """a reset whose straight move crosses a wall goes by way of doors only if that way is at
+        most this much longer; else it is refused"""
+        door_search_radius: float = param(4.0, unit="m", gt=0)
+        """doors farther than this from the agent are not candidates"""
+        door_line_tolerance: float = param(0.3, unit="m", gt=0)
+        """a candidate door's centre lies this close to the line of the wall the step ran into"""
+        door_range_gate: float = param(2.0, unit="m", gt=0)
+        """a door is taken only if its expected range to each anchor is within this of the measured
+        range (plus 3 sigma)"""
+        door_needs_range: bool = param(True)
+        """the missed-door rule fires only with a fresh range to an anchor: without one a square
+        hit is as likely a walker overshooting a room's corner, and a door the track really
+        missed is caught by the reset rule"""
+        turn_guard: Angle | None = param(math.radians(30.0), unit="rad", gt=0)
+        """no rotation is stored while the INS heading or the step direction turned more than this
+        over the last two steps (null: off)"""
+        rotation_from: Literal["step", "heading"] = param("step")
+        """velocity whose ORCA rotation is stored: 'step' = the step from the agent to the INS
+        position (eq. 7, Figure 4); 'heading' = the same speed along the INS heading, which
+        ignores the sway of single strides"""
+        door_pass: bool = param(True)
+        """a step whose line passes through a doorway while the disc clips a jamb is centred in the
+        door (a translation) instead of being held or rotated"""
+        min_step: float = param(0.2, unit="m", ge=0)
+        """a shorter move (a shuffle while standing) is only held at the wall: its direction says
+        nothing about heading or doors"""
+        range_max_age: float = param(2.0, unit="s", gt=0)
+        """ranges older than this are not used to choose a door"""
+        free_space_covariance: bool = param(True)
+        """every step not moved by a jump reports what the walls around it know of the position
+        (along and across the heading: somewhere between the walls either side), fused by
+        dead_reckoning into its covariance"""
+        free_space_reach: float = param(10.0, unit="m", gt=0)
+        """an axis with no wall within this on either side says nothing of the position"""
+        free_space_confidence: float = param(0.5, ge=0, le=1)
+        """the walls either side hold the position on an axis only if the estimator's covariance
+        puts the walker between them with at least this probability (else it may be in another
+        compartment)"""
+        avoid_team: bool = param(False)
+        """team members are ORCA agents that avoid each other (reciprocal lines, §2.2)"""
+        team_time_horizon: float = param(2.0, unit="s", gt=0)
+        """time horizon for agent-agent avoidance"""
+        team_max_age: float = param(2.0, unit="s", gt=0)
+        """team members not updated for this long are ignored"""
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)

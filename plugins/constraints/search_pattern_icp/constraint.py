@@ -44,32 +44,33 @@ __all__ = ["SearchPatternIcpConstraint"]
 
 
 class SearchPatternIcpParams(Params):
-    length_m: float = param(20.0, unit="m", gt=0, description="pattern length d (§V-B)")
-    every_m: float = param(2.0, unit="m", gt=0,
-                           description="compare each time this far has been walked (§V-B)")
-    grid_spacing_m: float = param(1.0, unit="m", gt=0, description="search-pattern grid spacing (§V-B)")
-    sigma: float = param(0.1, unit="sqrt(m)", gt=0, description="sigma of the likelihood eq. (2)")
-    resample_percent: float = param(10.0, unit="%", ge=0, le=100,
-                                    description="q: share of lowest-weight particles replaced "
-                                    "by pseudo-observations after each comparison (0 = off)")
-    resample_above_m2: float = param(0.0, unit="m^2", ge=0,
-                                     description="resample from pseudo-observations only while "
-                                     "the cloud's var_x + var_y exceeds this, i.e. while the "
-                                     "filter has not converged (0: always, the paper)")
-    resample_position_sigma_m: float = param(0.5, unit="m", ge=0,
-                                             description="noise on resampled positions (§V-B)")
-    resample_heading_sigma: Angle = param(math.radians(25.0), unit="rad", ge=0,
-                                          description="noise on resampled walking headings "
-                                          "(25 deg, §V-B)")
-    point_spacing_m: float = param(0.5, unit="m", gt=0,
-                                   description="odometry resampled along its path at this spacing")
-    right_hand_heading: Literal["arrival", "departure"] = param(
-        "arrival", description="walking direction of a right-hand observation: the direction "
-        "of arrival at the pattern's last node, or the paper's Hea(eta, 2), the next step "
-        "(see comparison.py)")
-    icp_iterations: int = param(30, gt=0, description="ICP iteration limit")
-    icp_tolerance: float = param(1e-4, unit="m", gt=0,
-                                 description="ICP stops when an iteration improves the RMSE by less")
+    length_m: float = param(20.0, unit="m", gt=0)
+    """pattern length d (§V-B)"""
+    every_m: float = param(2.0, unit="m", gt=0)
+    """compare each time this far has been walked (§V-B)"""
+    grid_spacing_m: float = param(1.0, unit="m", gt=0)
+    """search-pattern grid spacing (§V-B)"""
+    sigma: float = param(0.1, unit="sqrt(m)", gt=0)
+    """sigma of the likelihood eq. (2)"""
+    resample_percent: float = param(10.0, unit="%", ge=0, le=100)
+    """q: share of lowest-weight particles replaced by pseudo-observations after each comparison (0
+    = off)"""
+    resample_above_m2: float = param(0.0, unit="m^2", ge=0)
+    """resample from pseudo-observations only while the cloud's var_x + var_y exceeds this, i.e.
+    while the filter has not converged (0: always, the paper)"""
+    resample_position_sigma_m: float = param(0.5, unit="m", ge=0)
+    """noise on resampled positions (§V-B)"""
+    resample_heading_sigma: Angle = param(math.radians(25.0), unit="rad", ge=0)
+    """noise on resampled walking headings (25 deg, §V-B)"""
+    point_spacing_m: float = param(0.5, unit="m", gt=0)
+    """odometry resampled along its path at this spacing"""
+    right_hand_heading: Literal["arrival", "departure"] = param("arrival")
+    """walking direction of a right-hand observation: the direction of arrival at the pattern's
+    last node, or the paper's Hea(eta, 2), the next step (see comparison.py)"""
+    icp_iterations: int = param(30, gt=0)
+    """ICP iteration limit"""
+    icp_tolerance: float = param(1e-4, unit="m", gt=0)
+    """ICP stops when an iteration improves the RMSE by less"""
 
 
 @dataclass

@@ -39,12 +39,12 @@ def crossing_moves(building, floor: np.ndarray, p0: np.ndarray, p1: np.ndarray) 
 
 
 class WallCrossingParams(Params):
-    mode: Literal["remove", "downweight"] = param(
-        "remove", description="remove crossing particles (§IV-E) or multiply their weight by factor")
-    factor: float = param(0.01, gt=0, lt=1, description="mode=downweight: weight factor per crossing move")
-    outside: Literal["remove", "allow"] = param(
-        "remove", description="particles outside the building outline are removed (remove) "
-        "or left alone (allow)")
+    mode: Literal["remove", "downweight"] = param("remove")
+    """remove crossing particles (§IV-E) or multiply their weight by factor"""
+    factor: float = param(0.01, gt=0, lt=1)
+    """mode=downweight: weight factor per crossing move"""
+    outside: Literal["remove", "allow"] = param("remove")
+    """particles outside the building outline are removed (remove) or left alone (allow)"""
 
 
 class WallCrossingConstraint(ParticleConstraint):

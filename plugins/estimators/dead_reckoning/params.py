@@ -15,13 +15,13 @@ from ..start_pose import missing_headings, start_pose_type
 class FirstSegment(Params):
     """Heading from the first straight segment walked along a wall of known direction."""
 
-    wall_heading: Angle | None = param(None, unit="rad", description="building-frame "
-                                       "direction of the first straight segment (a known "
-                                       "wall); default: the start heading")
-    distance: float = param(3.0, unit="m", gt=0, description="straight distance walked "
-                            "before the heading is fixed")
-    straightness: float = param(0.3, unit="m", gt=0, description="largest sideways deviation "
-                                "from the chord that still counts as straight")
+    wall_heading: Angle | None = param(None, unit="rad")
+    """building-frame direction of the first straight segment (a known wall); default: the start
+    heading"""
+    distance: float = param(3.0, unit="m", gt=0)
+    """straight distance walked before the heading is fixed"""
+    straightness: float = param(0.3, unit="m", gt=0)
+    """largest sideways deviation from the chord that still counts as straight"""
 
 
 class DeadReckoningStart(StartPose):
@@ -29,9 +29,9 @@ class DeadReckoningStart(StartPose):
     straight segment walked along a wall (``first_segment``); the position is that of the
     mode (``entrance``, ``pose`` or ``truth``)."""
 
-    first_segment: FirstSegment | None = param(
-        None, description="take the start heading from the first straight segment walked "
-        "(along a wall of direction first_segment.wall_heading) instead of the start pose")
+    first_segment: FirstSegment | None = param(None)
+    """take the start heading from the first straight segment walked (along a wall of direction
+    first_segment.wall_heading) instead of the start pose"""
 
     @model_validator(mode="after")
     def _heading_known(self) -> "DeadReckoningStart":
@@ -49,19 +49,19 @@ Start = start_pose_type(DEFAULT_START, modes=("entrance", "pose", "truth", "unkn
 class ImuYawOffset(Params):
     """Walking direction minus the INS heading: the IMU's yaw on the boot plus the toe-out."""
 
-    angle: Angle | None = param(None, unit="rad", description="the offset, if known; null: "
-                                "estimated from the first straight steps")
-    steps: int = param(6, ge=1, description="straight forward steps the estimate uses (the "
-                       "steps are held back until then)")
+    angle: Angle | None = param(None, unit="rad")
+    """the offset, if known; null: estimated from the first straight steps"""
+    steps: int = param(6, ge=1)
+    """straight forward steps the estimate uses (the steps are held back until then)"""
 
 
 class StepNoise(Params):
     """Least noise per step in the covariance, for what INS covariances tend to leave out."""
 
-    heading_sigma: Angle = param(0.005, unit="rad", ge=0, description="heading noise per step "
-                                 "(INS heading drift)")
-    length_sigma: float = param(0.01, unit="1", ge=0, description="position noise per step and axis, as "
-                                "a fraction of the step length")
+    heading_sigma: Angle = param(0.005, unit="rad", ge=0)
+    """heading noise per step (INS heading drift)"""
+    length_sigma: float = param(0.01, unit="1", ge=0)
+    """position noise per step and axis, as a fraction of the step length"""
 
 
 class Drift(Params):
@@ -77,37 +77,34 @@ class Drift(Params):
     the rate state to it.
     """
 
-    heading_rate_sigma: AngularRate = param(0.1 * math.pi / 180, unit="rad/s", ge=0,
-                                            description="1-sigma residual heading rate (gyro "
-                                            "bias about z); at least the rate the odometry's "
-                                            "own heading variance per step implies")
-    scale_sigma: float = param(0.03, ge=0, lt=1, description="1-sigma step-length scale "
-                               "error (fraction)")
-    turn_sigma: float = param(0.03, ge=0, lt=1, description="1-sigma heading error per "
-                              "radian turned (gyro scale factor, g-sensitivity), white from "
-                              "turn to turn")
-    contradiction_gate: float = param(13.8, gt=0, description="a correction whose squared "
-                                      "Mahalanobis distance from the odometry's prediction "
-                                      "exceeds this (13.8: 99.9 % of a 2-D Gaussian) "
-                                      "contradicts the odometry: reported, and the pose "
-                                      "covariance widened by it")
+    heading_rate_sigma: AngularRate = param(0.1 * math.pi / 180, unit="rad/s", ge=0)
+    """1-sigma residual heading rate (gyro bias about z); at least the rate the odometry's own
+    heading variance per step implies"""
+    scale_sigma: float = param(0.03, ge=0, lt=1)
+    """1-sigma step-length scale error (fraction)"""
+    turn_sigma: float = param(0.03, ge=0, lt=1)
+    """1-sigma heading error per radian turned (gyro scale factor, g-sensitivity), white from turn
+    to turn"""
+    contradiction_gate: float = param(13.8, gt=0)
+    """a correction whose squared Mahalanobis distance from the odometry's prediction exceeds this
+    (13.8: 99.9 % of a 2-D Gaussian) contradicts the odometry: reported, and the pose covariance
+    widened by it"""
 
 
 class DeadReckoningParams(Params):
-    start: Start = param(DEFAULT_START, description=(
-        "how the INS frame is placed in the building (eq. 9): mode 'entrance' = the building "
-        "entrance's position and inward heading; 'pose' = start position and heading; "
-        "'truth' = the pose of a GroundTruth input stream when the INS starts (a surveyed "
-        "start, for evaluation: the paper's GNSS fix at the entrance); 'unknown' = the INS "
-        "frame is the building frame"))
-    imu_yaw_offset: ImuYawOffset = param(ImuYawOffset(), description="walking direction minus "
-                                         "the INS heading")
-    step_noise: StepNoise = param(StepNoise(), description="least per-step noise in the "
-                                  "covariance")
-    drift: Drift = param(Drift(), description="heading-rate and step-scale error states; "
-                         "the contradiction gate of corrections")
-    integrity: IntegrityParams = param(IntegrityParams(), description="protection radius "
-                                       "containment and the alert limit of 'trusted'")
-    max_bridge_speed: float = param(3.0, unit="m/s", gt=0, description="a gap in the "
-                                    "odometry is bridged from the INS's absolute positions "
-                                    "only if the implied speed is below this")
+    start: Start = param(DEFAULT_START)
+    """how the INS frame is placed in the building (eq. 9): mode 'entrance' = the building
+    entrance's position and inward heading; 'pose' = start position and heading; 'truth' = the
+    pose of a GroundTruth input stream when the INS starts (a surveyed start, for evaluation:
+    the paper's GNSS fix at the entrance); 'unknown' = the INS frame is the building frame"""
+    imu_yaw_offset: ImuYawOffset = param(ImuYawOffset())
+    """walking direction minus the INS heading"""
+    step_noise: StepNoise = param(StepNoise())
+    """least per-step noise in the covariance"""
+    drift: Drift = param(Drift())
+    """heading-rate and step-scale error states; the contradiction gate of corrections"""
+    integrity: IntegrityParams = param(IntegrityParams())
+    """protection radius containment and the alert limit of 'trusted'"""
+    max_bridge_speed: float = param(3.0, unit="m/s", gt=0)
+    """a gap in the odometry is bridged from the INS's absolute positions only if the implied speed
+    is below this"""
