@@ -47,8 +47,13 @@ waits for a late worker (deterministic; counted "waited for"), or with
 ``--handover-wait S`` at most S seconds, then goes on with the old factor (counted
 "late").
 
+The GEN runs with its class's own options (active-set bound 900 dimensions, 150 hot nodes,
+background systems from 300 dimensions), or with ``--plugin-settings`` as the
+``breadcrumb_gen`` plugin sets them (600, 50, 3000), the same in every checkout compared.
+
 Run: ``.venv/bin/python benchmarks/bench_breadcrumb_graph.py [--seed 0] [--quick]
-[--heading-states] [--compare DIR ...] [--pace X] [--rebuild-lag N] [--handover-wait S]``
+[--heading-states] [--compare DIR ...] [--pace X] [--rebuild-lag N] [--handover-wait S]
+[--plugin-settings]``
 """
 from __future__ import annotations
 
@@ -209,26 +214,36 @@ def add_encounters_and_drop(gen: GeneralizedElectricalNetwork, up: Update) -> No
         gen.add_relative_position(up.drop, up.key, np.zeros(3), 0.09 * np.eye(3))
 
 
-def new_network(rebuild_lag: int, handover_wait: float | None = None
-                ) -> GeneralizedElectricalNetwork:
-    """The GEN with its defaults and refactorisations handed over ``rebuild_lag`` updates
-    after they start (on a worker thread), waiting at most ``handover_wait`` [s] for a late
-    one (None: until done), where the checkout's GEN has these options."""
+def plugin_settings() -> dict:
+    """The GEN's options as the ``breadcrumb_gen`` plugin sets them by default (active-set
+    bound, hot nodes, background size, re-linearisation threshold), without the lag and
+    wait the benchmark sets itself."""
+    from firenav_plugins.estimators.breadcrumb_gen.params import Graph
+    options = Graph().network_options()
+    return {k: v for k, v in options.items() if k not in ("rebuild_lag", "handover_wait")}
+
+
+def new_network(rebuild_lag: int, handover_wait: float | None = None,
+                settings: dict | None = None) -> GeneralizedElectricalNetwork:
+    """The GEN with its own defaults, or ``settings`` (:func:`plugin_settings`), and
+    refactorisations handed over ``rebuild_lag`` updates after they start (on a worker
+    thread), waiting at most ``handover_wait`` [s] for a late one (None: until done),
+    where the checkout's GEN has these options."""
     options = inspect.signature(GeneralizedElectricalNetwork).parameters
-    kw = {"rebuild_lag": rebuild_lag, "handover_wait": handover_wait}
+    kw = {**(settings or {}), "rebuild_lag": rebuild_lag, "handover_wait": handover_wait}
     return GeneralizedElectricalNetwork(3, **{k: v for k, v in kw.items() if k in options})
 
 
 def run_ours(updates: list[Update], linear_only: bool = False, heading_states: bool = False,
              cpu: np.ndarray | None = None, pace: float = 0.0, rebuild_lag: int = REBUILD_LAG,
-             handover_wait: float | None = None
+             handover_wait: float | None = None, settings: dict | None = None
              ) -> tuple[GeneralizedElectricalNetwork, np.ndarray]:
     """Our incremental GEN, one timed update per firefighter step (``linear_only``: the
     ranges left out, so that the batch BLUE is exact without iterations); wall seconds
     per update, and the CPU seconds into ``cpu`` when given. ``pace`` > 0 feeds the
     updates at ``pace`` times their data rate (1: live, 20 firefighters a step each per
-    second) instead of back to back."""
-    gen = new_network(rebuild_lag, handover_wait)
+    second) instead of back to back; ``settings``: see :func:`new_network`."""
+    gen = new_network(rebuild_lag, handover_wait, settings)
     gen.add_anchor("base", np.zeros(3))
     lat = np.zeros(len(updates))
     start = time.perf_counter()
@@ -409,12 +424,14 @@ def max_diff(a: dict, b: dict) -> float:
 
 
 def time_ours(seed: int, steps: int, heading_states: bool, pace: float = 0.0,
-              rebuild_lag: int = REBUILD_LAG, handover_wait: float | None = None) -> dict:
+              rebuild_lag: int = REBUILD_LAG, handover_wait: float | None = None,
+              settings: dict | None = None) -> dict:
     """Wall and CPU per update [ms] of ours on the graph of ``seed`` (for ``--compare``)."""
     updates, _ = make_graph(seed, steps=steps)
     cpu = np.zeros(len(updates))
     gen, lat = run_ours(updates, heading_states=heading_states, cpu=cpu, pace=pace,
-                        rebuild_lag=rebuild_lag, handover_wait=handover_wait)
+                        rebuild_lag=rebuild_lag, handover_wait=handover_wait,
+                        settings=settings)
     return {"wall": (1e3 * lat).tolist(), "cpu": (1e3 * cpu).tolist(),
             "rebuilds": gen.solver.rebuilds,
             "background": getattr(gen, "background_rebuilds", 0),
@@ -424,30 +441,34 @@ def time_ours(seed: int, steps: int, heading_states: bool, pace: float = 0.0,
 
 def ours_in_checkout(path: str, seed: int, steps: int, heading_states: bool,
                      pace: float = 0.0, rebuild_lag: int = REBUILD_LAG,
-                     handover_wait: float | None = None) -> dict:
-    """:func:`time_ours` run by the GEN of the checkout at ``path``, in a fresh process."""
+                     handover_wait: float | None = None, settings: dict | None = None) -> dict:
+    """:func:`time_ours` run by the GEN of the checkout at ``path``, in a fresh process
+    (``settings`` the same in every checkout)."""
     here = os.path.dirname(os.path.abspath(__file__))
     code = ("import json, sys; sys.path.insert(0, %r); import bench_breadcrumb_scaling as s; "
             "s.use_checkout(%r); import bench_breadcrumb_graph as g; "
-            "print(json.dumps(g.time_ours(%d, %d, %r, %r, %d, %r)))"
-            % (here, path, seed, steps, heading_states, pace, rebuild_lag, handover_wait))
+            "print(json.dumps(g.time_ours(%d, %d, %r, %r, %d, %r, %r)))"
+            % (here, path, seed, steps, heading_states, pace, rebuild_lag, handover_wait,
+               settings))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=path)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def compare(others: list[str], seed: int, steps: int, pace: float, rebuild_lag: int,
-            handover_wait: float | None = None) -> None:
+            handover_wait: float | None = None, settings: dict | None = None) -> None:
     """Ours in the checkouts ``others`` and here, alternating, wall and CPU per update."""
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     feed = f"paced at {pace:g}x the data rate" if pace > 0 else "back to back"
     wait = "until done" if handover_wait is None else f"at most {1e3 * handover_wait:g} ms"
     print(f"updates {feed}; this checkout hands refactorisations over {rebuild_lag} "
-          f"updates after they start, waiting {wait} for a late one")
+          f"updates after they start, waiting {wait} for a late one; GEN options: "
+          f"{settings or 'its defaults'}")
     for heading in (False, True):
         for path in (*others, here):
             name = "this" if path == here else os.path.basename(os.path.normpath(path))
-            r = ours_in_checkout(path, seed, steps, heading, pace, rebuild_lag, handover_wait)
+            r = ours_in_checkout(path, seed, steps, heading, pace, rebuild_lag, handover_wait,
+                                 settings)
             print(f"{name:10s} {'heading states' if heading else 'positions only':14s} "
                   f"wall: {stats(np.array(r['wall']) / 1e3)} | CPU: "
                   f"{stats(np.array(r['cpu']) / 1e3)} [{r['rebuilds']} refactorisations, "
@@ -473,11 +494,15 @@ def main() -> None:
     ap.add_argument("--handover-wait", type=float, default=None, metavar="S", help="wait "
                     "at most this long [s] for a refactorisation due at its hand-over "
                     "(default: until done, deterministic)")
+    ap.add_argument("--plugin-settings", action="store_true", help="the GEN with the "
+                    "breadcrumb_gen plugin's default options (active-set bound, hot nodes, "
+                    "background size) instead of the class's own, in every checkout")
     args = ap.parse_args()
+    settings = plugin_settings() if args.plugin_settings else None
     steps = 20 if args.quick else 95
     if args.compare:
         compare(args.compare, args.seed, steps, args.pace, args.rebuild_lag,
-                args.handover_wait)
+                args.handover_wait, settings)
         return
     updates, truth = make_graph(args.seed, steps=steps)
     n_nodes = 1 + len(updates) + sum(u.drop is not None for u in updates)
@@ -488,7 +513,7 @@ def main() -> None:
           f"{sum(len(u.encounters) for u in updates)} encounters), 20 agents, seed {args.seed}")
 
     (gen, lat), cpu = with_cpu(run_ours, updates, pace=args.pace, rebuild_lag=args.rebuild_lag,
-                               handover_wait=args.handover_wait)
+                               handover_wait=args.handover_wait, settings=settings)
     print(f"ours (incremental GEN)     {stats(lat)}   "
           f"[{gen.solver.rebuilds} refactorisations, {gen.relinearised} relinearisations; "
           f"CPU {cpu:.1f} s, wall {lat.sum():.1f} s]")
@@ -515,7 +540,7 @@ def main() -> None:
     if args.heading_states:
         (hs, lat_h), cpu_h = with_cpu(run_ours, updates, heading_states=True, pace=args.pace,
                                       rebuild_lag=args.rebuild_lag,
-                                      handover_wait=args.handover_wait)
+                                      handover_wait=args.handover_wait, settings=settings)
         print(f"with heading states: ours {stats(lat_h)}   [{hs.solver.rebuilds} "
               f"refactorisations, {hs.relinearised} relinearisations; CPU {cpu_h:.1f} s, "
               f"wall {lat_h.sum():.1f} s]")

@@ -118,12 +118,7 @@ class BreadcrumbGenEstimator(Estimator):
     def __init__(self, params: BreadcrumbGenParams, ctx) -> None:
         super().__init__(params, ctx)
         p = self.params
-        self.gen = GeneralizedElectricalNetwork(3, relinearize_sigma=p.graph.relinearize_sigma,
-                                                max_active_dims=p.graph.max_active_dims,
-                                                hot_nodes=max(8, p.graph.max_active_dims // 12),
-                                                rebuild_lag=p.graph.rebuild_lag,
-                                                background_dims=p.graph.background_dims,
-                                                handover_wait=p.graph.handover_wait)
+        self.gen = GeneralizedElectricalNetwork(3, **p.graph.network_options())
         self._agents: dict[str, _Agent] = {}
         self._crumbs: dict[str, str] = {}             # breadcrumb id -> current graph node
         self._kicks: dict[str, int] = {}              # breadcrumb id -> relocations so far

@@ -3,6 +3,8 @@ edges, the breadcrumbs, the radio edges, the graph window, the heading states, t
 learned path-loss model, the consistency of the published covariance and integrity."""
 from __future__ import annotations
 
+from typing import Any
+
 from firenav_framework import Angle, AngularRate, Params, StartPose, Vec3, param
 from firenav_framework.integrity import IntegrityParams
 
@@ -148,6 +150,16 @@ class Graph(Params):
     background_dims: int = param(3000, ge=0, le=1_000_000)
     """systems of at least this many dimensions are refactorised on the worker thread; smaller ones
     at once"""
+
+    def network_options(self) -> dict[str, Any]:
+        """The :class:`~.network.GeneralizedElectricalNetwork` keyword arguments of these
+        settings (the hot nodes re-activated after a refactorisation: a twelfth of the
+        active set's bound, in nodes of 3 dimensions, at least 8)."""
+        return {"relinearize_sigma": self.relinearize_sigma,
+                "max_active_dims": self.max_active_dims,
+                "hot_nodes": max(8, self.max_active_dims // 12),
+                "rebuild_lag": self.rebuild_lag, "background_dims": self.background_dims,
+                "handover_wait": self.handover_wait}
 
 
 class HeadingStates(Params):
