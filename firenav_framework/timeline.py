@@ -48,7 +48,9 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
+
+from .field_docs import DescribedModel
 
 from .messages import Diagnostic, Message, Tick
 from .stats import RunStats
@@ -56,10 +58,10 @@ from .stats import RunStats
 TIMELINE_ID = "timeline"
 
 
-class TimelineConfig(BaseModel):
+class TimelineConfig(DescribedModel):
     """The timeline's rules (the ``timeline:`` section of a pipeline)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
     reorder_window: float = Field(0.25, ge=0, json_schema_extra={"unit": "s"})
     """hold messages this long [s] to reorder late arrivals"""

@@ -16,18 +16,19 @@ import math
 import re
 from typing import Annotated, Any, Literal
 
-from pydantic import AllowInfNan, BaseModel, BeforeValidator, ConfigDict, Field, field_validator
+from pydantic import AllowInfNan, BeforeValidator, ConfigDict, Field, field_validator
+
+from ..field_docs import DescribedModel
 
 __all__ = ["Params", "param", "Angle", "AngularRate", "Vec3", "AgentPose", "StartPose",
            "parse_angle"]
 
 
-class Params(BaseModel):
+class Params(DescribedModel):
     """Base for plugin parameter models: unknown keys are errors, values are checked,
-    and no value is NaN."""
+    no value is NaN, and each parameter's description is its docstring."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True,
-                              use_attribute_docstrings=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
 
     @field_validator("*", mode="after")
     @classmethod

@@ -21,15 +21,17 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
+
+from ..field_docs import DescribedModel
 
 Posture = Literal["stand", "kneel", "crawl"]
 
 
-class Gait(BaseModel):
+class Gait(DescribedModel):
     """The foot motion of one way of moving (per stride of the instrumented foot)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
     speed: float = Field(1.3, gt=0, le=4.0)
     """walking speed along the path [m/s]"""
@@ -141,7 +143,7 @@ KNEEL_PITCH = POSTURE_PITCH["kneel"]
 POSTURE_CHANGE_S = 1.3
 
 
-class Person(BaseModel):
+class Person(DescribedModel):
     """How one firefighter differs from the nominal gaits.
 
     Unset scales are drawn per seed: ``stride_scale`` ~ N(1, 0.06) (body height),
@@ -151,7 +153,7 @@ class Person(BaseModel):
     duration (fraction, 1 sigma) and ``heading_jitter_deg`` that of foot placement.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
     stride_scale: float | None = Field(None, gt=0.5, lt=1.5)
     speed_scale: float | None = Field(None, gt=0.5, lt=1.5)

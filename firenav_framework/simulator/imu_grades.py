@@ -35,11 +35,13 @@ from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field, model_validator
+
+from ..field_docs import DescribedModel
 
 
-class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+class _Spec(DescribedModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
 class _AxisSpec(_Spec):

@@ -43,18 +43,20 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
+
 from scipy.linalg import expm
 from scipy.signal import butter, lfilter, sosfilt
 from scipy.spatial.transform import Rotation
 
+from ..field_docs import DescribedModel
 from .gait import FootKinematics, StrideTable, euler_matrix
 from .profiles import progress
 
 G0 = 9.80665
 
 
-class MountConfig(BaseModel):
+class MountConfig(DescribedModel):
     """The IMU's attachment to the boot (``sensors.imu.mount`` of a scenario).
 
     Defaults from the real foot-IMU recordings in ``../shared/data`` (MicroStrain
@@ -68,7 +70,7 @@ class MountConfig(BaseModel):
     below 2 Hz (``sway_dps``).
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
     natural_hz: float = Field(18.0, gt=2, le=200)
     """natural frequency of the IMU on its strap [Hz]"""

@@ -32,6 +32,8 @@ from typing import Any, Literal
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
 
+from ..field_docs import DescribedModel
+
 from ..yaml_locations import ConfigError, LocatedDocument, Problem, load, loads
 from .gaits import Gait, Person
 from .imu_grades import AccelSpec, GyroSpec, ImuErrors, MagSpec, get_grade
@@ -42,8 +44,8 @@ SCENARIO_DIR = Path(__file__).with_name("scenarios")
 XY = tuple[float, float]
 
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+class _Model(DescribedModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
 # -- environment and radio ------------------------------------------------------------
