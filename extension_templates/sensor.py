@@ -54,8 +54,9 @@ class MyRangeSensor(Sensor):
     outputs = {"range": Range}
 
     class Params(Params):
-        # TODO: every parameter: a default, an SI unit where it is a quantity, a
-        # description (they are the YAML schema and the `firenav plugins show` table).
+        # TODO: every parameter: a default, an SI unit where it is a quantity, and its
+        # description as the docstring right below it (they are the YAML schema and the
+        # `firenav plugins show` table).
         # Angles are declared `Angle` / `AngularRate` (radians; YAML may say "5 deg").
         offset: float = param(0.0, unit="m")
         """bias of the radio, subtracted from every range"""
