@@ -166,3 +166,27 @@ def test_poses_in_their_own_odometry_frame_are_not_compared_with_truth(tmp_path)
     assert d["track_error"] == {} and d["streams_not_in_building_frame"] == ["dr.pose"]
     assert "Not compared with ground truth (in their own odometry frame): dr.pose" \
         in format_summary(res)
+
+
+def test_start_up_objects_are_out_of_full_collections_only_while_running(tmp_path,
+                                                                          monkeypatch):
+    """What start-up built is frozen for the run (a full garbage collection would walk it
+    and stall the message in hand) and collectable again afterwards (a process runs many
+    pipelines: an evaluation, a sweep, the tests)."""
+    import gc
+
+    from firenav_framework import runner
+
+    seen = []
+    offline = runner.Runner._run_offline
+
+    def watched(self, *args):
+        seen.append(gc.get_freeze_count())
+        return offline(self, *args)
+
+    monkeypatch.setattr(runner.Runner, "_run_offline", watched)
+    assert gc.get_freeze_count() == 0
+    res = run(pipeline(), tmp_path)
+    assert len(res.tracks["dr.pose"]) == 2
+    assert seen and seen[0] > 1000
+    assert gc.get_freeze_count() == 0
