@@ -127,7 +127,7 @@ class BatchBlue:
         self._where = np.zeros(0, np.int64)
         self.rebuilds = 0
         self.activated = 0
-        self.max_active_dims = 0
+        self.max_active_dims = self.start_dims = 0
 
     def _solution(self) -> None:
         if not self._dirty:

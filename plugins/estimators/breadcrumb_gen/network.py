@@ -156,16 +156,21 @@ class GeneralizedElectricalNetwork:
     refactorised at once.
     ``handover_wait`` [s] bounds that wait instead: a worker not done by then is handed
     over at a later call (:attr:`late_handovers`), which makes the estimates depend on
-    the machine's timing.
+    the machine's timing. With a lag a refactorisation is due once the active set passes
+    ``background_start`` of its bound (a fraction): it grows on while pending, and the
+    updates' dense cost grows with its square.
     """
 
     def __init__(self, dim: int = 3, *, eps: float = 1e-6, relinearize_sigma: float = 0.1,
                  max_active_dims: int = 900, hot_nodes: int = 150,
                  incremental: bool = True, rebuild_lag: int = 0,
-                 background_dims: int = 300, handover_wait: float | None = None) -> None:
+                 background_dims: int = 300, handover_wait: float | None = None,
+                 background_start: float = 0.65) -> None:
         if rebuild_lag < 0 or background_dims < 0:
             raise ValueError(f"rebuild_lag ({rebuild_lag}) and background_dims "
                              f"({background_dims}) must be >= 0")
+        if not 0 < background_start <= 1:
+            raise ValueError(f"background_start must be in (0, 1], got {background_start}")
         if handover_wait is not None and not handover_wait >= 0:
             raise ValueError(f"handover_wait must be >= 0 s or None, got {handover_wait}")
         self.handover_wait = handover_wait
@@ -186,6 +191,10 @@ class GeneralizedElectricalNetwork:
         self.solver: IncrementalBlue | BatchBlue = (
             IncrementalBlue(dim, max_active_dims=max_active_dims) if incremental
             else BatchBlue(dim, self.assemble))
+        if rebuild_lag and incremental:
+            self.solver.start_dims = int(background_start * max_active_dims)
+            # the first pending refactorisation must not grow the dense set on this thread
+            self.solver.reserve(self.solver.pending_capacity)
         self._ids: dict[Hashable, int] = {}
         self._keys: list[Hashable] = []
         self._anchor: dict[int, np.ndarray] = {}
@@ -1056,8 +1065,9 @@ class GeneralizedElectricalNetwork:
         return it
 
     def _hot_count(self) -> int:
-        """Nodes to re-activate after a refactorisation: at most half the active set."""
-        return min(self.hot_nodes, self.solver.max_active_dims // (2 * self.d))
+        """Nodes to re-activate after a refactorisation: at most half the active set at
+        which the next one is due."""
+        return min(self.hot_nodes, self.solver.start_dims // (2 * self.d))
 
     @property
     def node_count(self) -> int:
