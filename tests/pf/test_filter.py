@@ -500,3 +500,70 @@ def test_spread_scale_widens_the_published_cloud_not_the_estimate(flat):
         assert b.cov[0, 1] == pytest.approx(4 * a.cov[0, 1])
         assert b.cov[3, 3] == pytest.approx(a.cov[3, 3])
         assert b.protection_radius > a.protection_radius
+
+
+def _two_alike_storeys():
+    """Two identical storeys (one room each), a stair at the far end of the room."""
+    sk = PlanSketch("alike")
+    for level in range(2):
+        f = sk.floor(3.0 * level, 3.0)
+        f.room(f"r{level}", (0, 0, 20, 8))
+    sk.floors[0].stair("s", [(16, 6), (19, 6)], floor_to=1, width=1.2)
+    return sk.build()
+
+
+class LookAlikeStorey(ParticleConstraint):
+    """A search-pattern match that cannot tell the storeys apart: it replaces a tenth of the
+    cloud by copies on floor 1 at the same places and finds floor 1 slightly likelier."""
+
+    name = "look_alike_storey"
+
+    def log_likelihood(self, step):
+        return np.where(step.particles.floor == 1, 0.3, 0.0)
+
+    def replacements(self, step):
+        p = step.particles
+        k = len(p) // 10
+        return Particles.create(p.xy[:k].copy(), p.yaw[:k].copy(), floor=np.ones(k, int))
+
+
+@pytest.mark.parametrize("height_factor", [1.0, 0.05])
+def test_the_ins_height_keeps_the_cloud_on_its_storey(height_factor):
+    """Walking the ground floor (the INS's height flat), look-alike matches on the storey
+    above win the cloud unless the particles' heights are checked against the INS's."""
+    b = _two_alike_storeys()
+    pf, rec, _ = make_component(ParticleFilterEstimator, {
+        "start": pose_start(2.0, 4.0), "particles": 200, "motion": {"position_noise": 0.02},
+        "injection": {"weight": "uniform"}, "stairs": {"height_factor": height_factor}},
+        building=b)
+    look, _, _ = make_component(LookAlikeStorey, {}, building=b, cid="look")
+    pf.constraints.append(look)
+    for msg in straight_walk(30, step_m=0.3):
+        pf.handle("odo", msg)
+    floors = [p.floor for p in rec.on("pose")]
+    if height_factor < 1:
+        assert floors == [0] * len(floors)
+    else:
+        assert floors[-1] == 1      # the failure the check removes
+
+
+@pytest.mark.parametrize("height_factor, trusted_at_end", [(1.0, True), (0.05, False)])
+def test_a_pose_whose_floor_the_ins_height_refutes_is_not_trusted(height_factor, trusted_at_end):
+    """The INS climbs a storey away from any stair (the cloud is off where it climbed):
+    every particle stays on the ground floor, a tight cloud, yet the INS's height says the
+    floor above. With the check the floor is in doubt and the pose not trusted."""
+    b = _two_alike_storeys()
+    pf, rec, _ = make_component(ParticleFilterEstimator, {
+        "start": pose_start(2.0, 4.0), "particles": 200, "motion": {"position_noise": 0.02},
+        "stairs": {"height_factor": height_factor}}, building=b)
+    pos = np.zeros(3)
+    for k in range(1, 31):
+        delta = np.array([0.3, 0.0, 0.3 if 5 <= k < 15 else 0.0])
+        pos = pos + delta
+        pf.handle("odo", Odometry(t=float(k), agent="ff1", t_start=k - 1.0, delta=delta,
+                                  dheading=0.0, cov=np.eye(4) * 1e-4, position=pos.copy(),
+                                  heading=0.0))
+    poses = rec.on("pose")
+    assert poses[0].trusted
+    assert all(p.floor == 0 for p in poses)
+    assert poses[-1].trusted is trusted_at_end

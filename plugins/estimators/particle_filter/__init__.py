@@ -2,7 +2,8 @@
 ``particle_filter`` estimator.
 
 Modules: :mod:`.estimator` (the plugin), :mod:`.params`, :mod:`.initialisation` (initial
-clouds), :mod:`.motion` (time update), :mod:`.stairs` (floor changes), :mod:`.particles`
+clouds), :mod:`.motion` (time update), :mod:`.stairs` (floor changes),
+:mod:`.height` (floors against the INS's height), :mod:`.particles`
 (summary, weights), :mod:`.resampling`, :mod:`.map_error` (§V-E monitor). Its
 constraints implement the particles capability
 (:mod:`firenav_framework.capabilities.particles`).

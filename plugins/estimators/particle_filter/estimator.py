@@ -34,7 +34,10 @@ jump of the mean between hypotheses that the particles' own motion does not expl
 ``trust.jump_evidence`` metres have been walked. With ``trust.refuted_evidence`` the pose
 stays untrusted for that many metres after a contradiction of the plan, and with
 ``trust.untrusted_growth`` an untrusted pose's covariance and protection radius grow with
-the distance walked since it was last trusted (:class:`.trust.DoubtMonitor`).
+the distance walked since it was last trusted (:class:`.trust.DoubtMonitor`). With
+``stairs.height_factor`` < 1 the particles' heights are checked against the INS's own
+(:mod:`.height`): a particle on another floor than the INS's height says is down-weighted,
+and a pose whose height disagrees is not trusted.
 """
 from __future__ import annotations
 
@@ -50,6 +53,7 @@ from firenav_framework.capabilities.particles import ParticleConstraint, Particl
 from firenav_framework.geometry import wrap_angles
 from firenav_framework.integrity import trusted
 
+from .height import HeightCheck, particle_heights
 from .initialisation import around_pose, near_point, uniform_free_space
 from .map_error import SpreadMonitor
 from ..odometry_input import accept_odometry
@@ -104,6 +108,8 @@ class _AgentState:
     plan_refuted: bool = False
     #: evidence after a contradiction and the untrusted pose's growth (None: both off)
     doubt: DoubtMonitor | None = None
+    #: the particles' heights against the INS's (``stairs.height_factor``; None: off)
+    height: HeightCheck | None = None
 
 
 class ParticleFilterEstimator(Estimator):
@@ -140,7 +146,10 @@ class ParticleFilterEstimator(Estimator):
                                      if tr.plan_evidence is not None else None),
                            doubt=(DoubtMonitor(tr.refuted_evidence, tr.untrusted_growth)
                                   if tr.refuted_evidence > 0 or tr.untrusted_growth > 0
-                                  else None))
+                                  else None),
+                           height=(HeightCheck(p.stairs.height_tolerance, p.stairs.height_factor)
+                                   if p.stairs.height_factor < 1
+                                   and len(self.ctx.building.floors) > 1 else None))
 
     def reset(self, agent: str) -> None:
         self.state.reset(agent)
@@ -219,6 +228,11 @@ class ParticleFilterEstimator(Estimator):
         rate = m.yaw_rate_sigma * rng.standard_normal(n) if m.yaw_rate_sigma else 0.0
         st.particles = Particles.create(xy, wrap_angles(heading - ins_heading0), floor, scale, rate)
         st.history.append(msg.t_start, np.asarray(msg.position, float) - msg.delta, ins_heading0)
+        if st.height is not None and start.mode == "unknown":
+            st.height = None     # no start floor to take the INS's height from
+        elif st.height is not None:
+            st.height.start(float(building.floors[int(floor[0])].z),
+                            float(msg.position[2] - msg.delta[2]))
         return True
 
     # ------------------------------------------------------------------ one update
@@ -235,6 +249,7 @@ class ParticleFilterEstimator(Estimator):
         if self._stairs is None:
             self._stairs = StairRegions(self.ctx.building, self.params.stairs.margin)
         self._stairs.apply(p, float(pend.delta[2]))
+        self._check_height(st, float(msg.position[2]))
         propagated_mean = p.weights @ p.xy if st.jump is not None else None
         odo = msg if pend.t_start == msg.t_start else Odometry(
             t=msg.t, agent=agent, device=msg.device, t_start=pend.t_start, delta=pend.delta,
@@ -255,6 +270,21 @@ class ParticleFilterEstimator(Estimator):
             p.logw[:] = -math.log(len(p))
             self.ctx.count("resampled")
         self._publish(agent, st, step, propagated_mean, walked_m)
+
+    def _check_height(self, st: _AgentState, ins_z: float) -> None:
+        """Down-weight the particles whose height is off the INS's (:mod:`.height`)."""
+        if st.height is None:
+            return
+        p = st.particles
+        ll = st.height.log_likelihood(particle_heights(p, self._levels()), ins_z)
+        if np.any(ll):
+            logw = p.logw + ll
+            if normalise_log_weights(logw):
+                p.logw = logw
+
+    def _levels(self) -> np.ndarray:
+        """(floors,) each floor's level [m]."""
+        return np.array([f.z for f in self.ctx.building.floors])
 
     def _update_offset(self, st: _AgentState) -> None:
         """Footnote 4: re-estimate the IMU-yaw to walking-direction offset."""
@@ -339,9 +369,8 @@ class ParticleFilterEstimator(Estimator):
     def _publish(self, agent: str, st: _AgentState, step: ParticleStep,
                  propagated_mean: np.ndarray | None, walked_m: float) -> None:
         p = st.particles
-        building = self.ctx.building
-        levels = np.array([f.z for f in building.floors])
-        summary = ParticleSummary.of(p, step.walking_heading(p), levels[p.floor] + p.climb)
+        summary = ParticleSummary.of(p, step.walking_heading(p),
+                                     particle_heights(p, self._levels()))
         st.spread_m2 = summary.spread_m2
         st.monitor.update(summary.spread_m2)
         self._map_error(agent, st, step.t, summary)
@@ -355,7 +384,8 @@ class ParticleFilterEstimator(Estimator):
                                          tr.kernel, tr.spread_scale)
         ok = trusted(radius, integ, contradicted=st.map_error or (
             st.jump is not None and st.jump.awaiting_evidence) or (
-            st.doubt is not None and st.doubt.awaiting_evidence))
+            st.doubt is not None and st.doubt.awaiting_evidence) or (
+            st.height is not None and st.height.disagrees(summary.z, float(step.odometry.position[2]))))
         if st.doubt is not None:
             grow = st.doubt.published(ok)
             cov[0, 0] += grow ** 2

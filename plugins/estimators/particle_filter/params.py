@@ -154,6 +154,12 @@ class Stairs(Params):
     margin: float = param(1.0, unit="m", ge=0, le=5)
     """how far outside a stair's footprint a particle still accumulates the odometry's climb and
     may change floor (0: on the footprint only)"""
+    height_factor: float = param(1.0, gt=0, le=1)
+    """at every update, the weight of a particle whose height (its floor's level plus its climb)
+    is more than height_tolerance off the INS's height (from the start's) is multiplied by this,
+    and a pose whose height is that far off is not trusted (1 disables both, as do a building of one floor and the unknown start; :mod:`.height`)"""
+    height_tolerance: float = param(1.0, unit="m", gt=0)
+    """how far a particle's height may be off the INS's before it counts as on another floor"""
 
 
 class ParticleFilterParams(Params):
