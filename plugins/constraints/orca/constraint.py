@@ -93,6 +93,7 @@ from ..anchor_ranges import AnchorRangeInput, TagParams
 from ..corrections import correction
 from ..segment_hits import SegmentHits
 from ..turn_history import TurnHistory
+from .compartment import CompartmentDoubt
 from .door_graph import DoorGraph
 from .doors import DoorTable, RangeFix
 from .free_space import free_space_covariance
@@ -116,6 +117,8 @@ class _Agent:
     turns: TurnHistory = field(default_factory=TurnHistory)
     refused: bool = False                   # this step's reset was refused
     held_since: float | None = None         # start [s] of the hold since a refused reset
+    doubt: CompartmentDoubt | None = None   # which compartment, from odometry and ranges only
+    new_ranges: list[tuple[np.ndarray, float]] = field(default_factory=list)  # (anchor, sigma) since the last step
 
 
 @dataclass(frozen=True)
@@ -203,6 +206,11 @@ class OrcaConstraint(AnchorRangeInput):
         """the walls either side hold the position on an axis only if the estimator's covariance
         puts the walker between them with at least this probability (else it may be in another
         compartment)"""
+        compartment_growth: float = param(0.05, unit="m/m", ge=0)
+        """the sigma of which compartment the walker is in grows by this per metre walked
+        when no range narrows it (the INS's drift); the walls hold the position on an axis
+        only if that doubt, added to the estimator's covariance, still puts the walker
+        between them (free_space_confidence). 0: the estimator's covariance alone"""
         avoid_team: bool = param(False)
         """team members are ORCA agents that avoid each other (reciprocal lines, §2.2)"""
         team_time_horizon: float = param(2.0, unit="s", gt=0)
@@ -224,7 +232,9 @@ class OrcaConstraint(AnchorRangeInput):
 
     # -- ranges ---------------------------------------------------------------------
     def take_range(self, msg: Range, anchor: str) -> None:
-        self.agents[msg.agent].ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
+        me = self.agents[msg.agent]
+        me.ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
+        me.new_ranges.append((self._anchors.positions[anchor], msg.sigma_m))
 
     def _fresh_ranges(self, agent: _Agent, t: float, speed: float) -> list[RangeFix]:
         """Ranges no older than ``range_max_age`` at time ``t`` [s], each sigma widened by
@@ -264,6 +274,7 @@ class OrcaConstraint(AnchorRangeInput):
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         me = self.agents[step.agent]
         me.refused = False
+        self._update_doubt(me, step)
         fix = self._rules(me, step)
         if fix is not None and not fix.event.startswith("orca_reset") and \
                 self._left_behind(step, fix):
@@ -275,7 +286,21 @@ class OrcaConstraint(AnchorRangeInput):
             fix = self._held_in_doubt(me, step, fix)
         elif me.held_since is not None:
             me.held_since = None
-        return self._record(me, step, self._with_free_space(step, fix))
+        return self._record(me, step, self._with_free_space(me, step, fix))
+
+    def _update_doubt(self, me: _Agent, step: OdometryStep) -> None:
+        """Widen the compartment doubt by the step's odometry, then narrow it by the
+        ranges taken since the last step (tag above the floor of ``prev``)."""
+        if me.doubt is None:
+            me.doubt = CompartmentDoubt(self.params.compartment_growth)
+        delta = step.odometry.delta
+        me.doubt.walk(math.hypot(delta[0], delta[1]))
+        tag = np.array([step.prev[0], step.prev[1],
+                        self._building.floors[self._building.floor_of_z(step.prev[2])].z
+                        + self.params.tag_height])
+        for anchor, sigma in me.new_ranges:
+            me.doubt.range_to(tag, anchor, sigma)
+        me.new_ranges.clear()
 
     def _held_in_doubt(self, me: _Agent, step: OdometryStep, fix: StepCorrection | None
                        ) -> StepCorrection:
@@ -383,17 +408,20 @@ class OrcaConstraint(AnchorRangeInput):
             return None
         return correction(step, via, jump=True, event="orca_reset_via_door")
 
-    def _with_free_space(self, step: OdometryStep, fix: StepCorrection | None
+    def _with_free_space(self, me: _Agent, step: OdometryStep, fix: StepCorrection | None
                          ) -> StepCorrection | None:
         """``fix`` (None: the step as proposed) with what the walls around the corrected
-        position know of it; jumps (door, reset) are left alone."""
+        position know of it; jumps (door, reset) are left alone. Whether the walker is
+        between those walls is judged on the estimator's covariance plus the compartment
+        doubt (:mod:`.compartment`), never on the walls' own evidence."""
         p = self.params
         if not p.free_space_covariance or (fix is not None and fix.jump):
             return fix
         position = step.proposed if fix is None else fix.position
         here = self._tables(self._building.floor_of_z(step.prev[2]))
+        prior = None if step.cov is None else step.cov + me.doubt.cov
         cov = free_space_covariance(here.walls, position[:2], step.heading, p.free_space_reach,
-                                    step.cov, p.free_space_confidence)
+                                    prior, p.free_space_confidence)
         if cov is None:
             return fix
         if fix is None:
