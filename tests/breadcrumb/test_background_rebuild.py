@@ -263,31 +263,6 @@ def test_the_worker_goes_on_only_between_updates():
     assert gen.solver.rebuild_ready(60.0) and worker._applied == len(worker._ops)
 
 
-def test_the_worker_waits_while_the_caller_is_in_an_update():
-    """Operations released at the end of one update are applied only while the caller is
-    idle: once the next update has logged its first operation, the worker waits (its
-    Python steps would take the GIL from every update of a burst) until that update ends,
-    then catches up on both."""
-    gen = GeneralizedElectricalNetwork(3, max_active_dims=60, hot_nodes=5, rebuild_lag=50,
-                                       background_dims=0)
-    walk = ranged_walk(gen, 70)
-    while not gen.rebuild_pending:
-        next(walk)
-    worker = gen.solver._worker
-    assert gen.solver.rebuild_ready(60.0)
-    done = worker._applied
-    with worker._cond:            # the worker cannot look at its queue meanwhile
-        next(walk)                # an update: its operations logged and released ...
-        released = worker._released
-        gen.add_node("x-extra")   # ... and the next one begun
-        gen.add_relative_position("x-extra", "bc3", np.zeros(3), 0.5 * np.eye(3))
-    assert released > done
-    time.sleep(0.05)
-    assert worker._applied == done
-    gen.relinearize()
-    assert gen.solver.rebuild_ready(60.0) and worker._applied == len(worker._ops)
-
-
 def test_the_dense_set_is_never_reallocated_on_the_callers_thread():
     """With refactorisations in the background the serving solver's dense covariance is
     allocated up front for the largest set a pending refactorisation lets it reach: it is

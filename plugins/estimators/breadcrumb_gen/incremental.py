@@ -86,11 +86,9 @@ class _Worker(threading.Thread):
     """Assembles and factorises one system off the caller's thread, installs it in a solver
     of its own and then *catches up*: applies the operations the caller logs meanwhile
     (:meth:`push`), in their order, so that at the hand-over the caller only swaps that
-    solver in. It starts, and goes on, only with what the caller has :meth:`release` d,
-    and only while the caller is idle: an operation the caller logs marks it busy until
-    its next :meth:`release` (the end of its update), and the worker waits meanwhile
-    before each step (its Python steps hold the GIL, which would stretch every update of a
-    burst it overlaps, not only the first). ``assemble`` returns an object with ``L``, ``b`` and
+    solver in. It starts, and goes on, only with what the caller has :meth:`release` d
+    (between updates: its sparse solves and Python steps hold the GIL, which would
+    stretch an update it overlaps). ``assemble`` returns an object with ``L``, ``b`` and
     ``nodes``; ``touch`` and ``clock`` are the caller's touch counters at the snapshot
     (the order in which the next refactorisation's hot nodes are chosen), ``capacity``
     the active-set dimensions to make room for (at least the caller's). Errors are
@@ -107,7 +105,6 @@ class _Worker(threading.Thread):
         self._released = -1          # of them, how many the worker may apply (-1: not
         self._applied = 0            # even the factorisation yet); applied so far
         self._closed = False         # hand-over: apply what is logged, then stop
-        self._busy = False           # the caller is in an update (logged since its release)
         self._dropped = False        # the caller is gone: stop now
         self._solver: IncrementalBlue | None = None
         self._error: BaseException | None = None
@@ -115,8 +112,7 @@ class _Worker(threading.Thread):
     def run(self) -> None:
         try:
             with self._cond:
-                self._cond.wait_for(lambda: (self._released >= 0 and not self._busy)
-                                    or self._closed or self._dropped)
+                self._cond.wait_for(lambda: self._released >= 0 or self._dropped)
             if self._dropped:
                 return
             system = self._assemble()
@@ -133,15 +129,15 @@ class _Worker(threading.Thread):
             while True:
                 with self._cond:
                     self._cond.wait_for(lambda: self._closed or self._dropped
-                                        or (self._applied < self._released
-                                            and not self._busy))
+                                        or self._applied < self._released)
                     end = len(self._ops) if self._closed else self._released
-                    if self._dropped or self._applied >= end:
-                        return
-                    op, args = self._ops[self._applied]
-                getattr(solver, op)(*args)
+                    todo = [] if self._dropped else self._ops[self._applied:end]
+                if not todo:
+                    return
+                for op, args in todo:
+                    getattr(solver, op)(*args)
                 with self._cond:
-                    self._applied += 1
+                    self._applied += len(todo)
                     self._cond.notify_all()
         except BaseException as exc:  # re-raised on the caller's thread at the hand-over
             with self._cond:
@@ -152,14 +148,11 @@ class _Worker(threading.Thread):
         """Log one operation (a solver method name and its arguments) for the catch-up."""
         with self._cond:
             self._ops.append((op, args))
-            self._busy = True
 
     def release(self) -> None:
-        """Let the worker go on with everything logged so far (the factorisation first):
-        the caller's update is over."""
+        """Let the worker go on with everything logged so far (the factorisation first)."""
         with self._cond:
             self._released = len(self._ops)
-            self._busy = False
             self._cond.notify_all()
 
     def drop(self) -> None:
@@ -170,12 +163,8 @@ class _Worker(threading.Thread):
 
     def caught_up(self, timeout: float | None) -> bool:
         """Whether the factorisation is done and every released operation applied, waiting
-        at most ``timeout`` [s] of wall time (None: until then); a caller that waits is
-        idle, so the worker may go on meanwhile."""
+        at most ``timeout`` [s] of wall time (None: until then)."""
         with self._cond:
-            if timeout is None or timeout > 0:
-                self._busy = False
-                self._cond.notify_all()
             return self._cond.wait_for(
                 lambda: self._error is not None
                 or (self._solver is not None and self._applied >= self._released), timeout)
