@@ -320,3 +320,15 @@ def test_a_background_refactorisation_starts_before_the_bound():
     assert all(45 < dims <= 45 + 2 * 3 for dims in early), early
     assert all(90 < dims <= 90 + 2 * 3 for dims in late), late
     assert early_peak < late_peak
+
+
+def test_background_start_outside_its_range_is_refused():
+    """A start fraction of zero or less, or above the bound, is a clear error, not a network
+    that refactorises every update or never before the forced hand-over."""
+    for bad in (0.0, -0.5, 1.5, math.nan):
+        try:
+            GeneralizedElectricalNetwork(3, rebuild_lag=2, background_start=bad)
+        except ValueError as exc:
+            assert "background_start" in str(exc)
+        else:
+            raise AssertionError(f"background_start={bad} accepted")

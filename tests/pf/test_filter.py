@@ -228,13 +228,20 @@ def test_entrance_start_and_truth_start(flat):
     assert np.hypot(*(rec.on("pose")[0].position[:2] - walk.truth_xy[1])) < 0.5
 
 
-def test_floor_changes_on_the_stair():
-    sk = PlanSketch("stairs")
+def two_storeys(name: str, room: tuple[float, float, float, float],
+                stair: list[tuple[float, float]]):
+    """Two storeys 3 m apart with the same room ``room`` (x0, y0, x1, y1) [m] on each and a
+    stair along ``stair`` from the ground floor to the first."""
+    sk = PlanSketch(name)
     for level in range(2):
         f = sk.floor(3.0 * level, 3.0)
-        f.room(f"r{level}", (0, 0, 10, 4))
-    sk.floors[0].stair("s", [(2, 2), (8, 2)], floor_to=1, width=1.2)
-    b = sk.build()
+        f.room(f"r{level}", room)
+    sk.floors[0].stair("s", stair, floor_to=1, width=1.2)
+    return sk.build()
+
+
+def test_floor_changes_on_the_stair():
+    b = two_storeys("stairs", (0, 0, 10, 4), [(2, 2), (8, 2)])
     pf, rec, _ = make_component(ParticleFilterEstimator, {"start": pose_start(1.5, 2.0),
                                                           "particles": 200,
                                                           "motion": {"position_noise": 0.02}},
@@ -504,12 +511,7 @@ def test_spread_scale_widens_the_published_cloud_not_the_estimate(flat):
 
 def _two_alike_storeys():
     """Two identical storeys (one room each), a stair at the far end of the room."""
-    sk = PlanSketch("alike")
-    for level in range(2):
-        f = sk.floor(3.0 * level, 3.0)
-        f.room(f"r{level}", (0, 0, 20, 8))
-    sk.floors[0].stair("s", [(16, 6), (19, 6)], floor_to=1, width=1.2)
-    return sk.build()
+    return two_storeys("alike", (0, 0, 20, 8), [(16, 6), (19, 6)])
 
 
 class LookAlikeStorey(ParticleConstraint):

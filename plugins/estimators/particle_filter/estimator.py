@@ -128,6 +128,7 @@ class ParticleFilterEstimator(Estimator):
         self.crawl_noise = params.motion.noise(crawl=True)
         self.state: PerAgent[_AgentState] = PerAgent(self._new_agent)
         self._stairs: StairRegions | None = None
+        self._floor_z: np.ndarray | None = None     # each floor's level [m], built once
 
     # ------------------------------------------------------------------ lifecycle
     def _new_agent(self, agent: str) -> _AgentState:
@@ -284,7 +285,9 @@ class ParticleFilterEstimator(Estimator):
 
     def _levels(self) -> np.ndarray:
         """(floors,) each floor's level [m]."""
-        return np.array([f.z for f in self.ctx.building.floors])
+        if self._floor_z is None:
+            self._floor_z = np.array([f.z for f in self.ctx.building.floors])
+        return self._floor_z
 
     def _update_offset(self, st: _AgentState) -> None:
         """Footnote 4: re-estimate the IMU-yaw to walking-direction offset."""
