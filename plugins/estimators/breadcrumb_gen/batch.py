@@ -42,6 +42,35 @@ def factorize(L: sp.spmatrix) -> spla.SuperLU:
             f"relative-position edges ({exc})") from None
 
 
+def block_ordering(L: sp.spmatrix, block: int = 1) -> np.ndarray:
+    """A fill-reducing elimination order of ``L``'s dimensions: minimum degree (SuperLU's,
+    on ``A + A^T``) on the graph of its ``block`` x ``block`` blocks, one vertex per node,
+    each node's dimensions kept together in their order.
+
+    The ordering depends on the sparsity pattern only, so it is computed on a surrogate
+    with that block pattern (the pattern's graph Laplacian plus the identity, symmetric
+    positive definite): for ``block`` 1 exactly the order of factorising ``L`` itself,
+    for the 3-dimensional nodes of a GEN about a ninth of its entries and a small fraction
+    of a factorisation of ``L``.
+    """
+    n = L.shape[0]
+    if n % block:
+        raise ValueError(f"{n} dimensions are not whole blocks of {block}")
+    nb = n // block
+    coo = sp.coo_matrix(L)
+    r, c = coo.row // block, coo.col // block
+    off = r != c
+    pattern = sp.csr_matrix((np.ones(int(off.sum())), (r[off], c[off])), shape=(nb, nb))
+    pattern.sum_duplicates()
+    pattern.data[:] = -1.0
+    degree = -np.asarray(pattern.sum(axis=1)).ravel()
+    surrogate = (pattern + sp.diags(degree + 1.0)).tocsc()
+    lu = spla.splu(surrogate, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                   options={"SymmetricMode": True})
+    nodes = np.argsort(lu.perm_c)
+    return (nodes[:, None] * block + np.arange(block)).ravel()
+
+
 class TrailingFactor:
     """A sparse LU of ``L`` with chosen dimensions eliminated last, and their exact joint
     covariance read off the factor's trailing block instead of by solves.
@@ -51,15 +80,16 @@ class TrailingFactor:
     ``S = L_ll - L_lr L_rr^-1 L_rl``, whose inverse is their covariance (eq. 5):
     ``Sigma_ll = S^-1``. Getting ``Sigma_ll`` by unit right-hand sides instead costs one
     triangular solve pair per dimension (most of a refactorisation's time on a graph of
-    thousands of nodes). The ordering is the minimum-degree one of ``L`` with ``last``
-    moved to the end; :meth:`solve` works in ``L``'s own ordering.
+    thousands of nodes). The ordering is the minimum-degree one of ``L``'s ``block`` x
+    ``block`` node blocks (:func:`block_ordering`) with ``last`` moved to the end;
+    :meth:`solve` works in ``L``'s own ordering.
     """
 
-    def __init__(self, L: sp.spmatrix, last: np.ndarray) -> None:
+    def __init__(self, L: sp.spmatrix, last: np.ndarray, block: int = 1) -> None:
         L = sp.csc_matrix(L)
         n = L.shape[0]
         last = np.asarray(last, np.int64)
-        elim = np.argsort(factorize(L).perm_c)      # minimum-degree elimination order
+        elim = block_ordering(L, block)
         tail = np.zeros(n, bool)
         tail[last] = True
         self.order = np.concatenate([elim[~tail[elim]], last])

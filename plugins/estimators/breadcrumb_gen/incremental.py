@@ -78,7 +78,7 @@ class Refactorisation:
             self.lu = factorize(L)
             self.xf = self.lu.solve(b)
         else:
-            self.lu = TrailingFactor(L, self.hdims)
+            self.lu = TrailingFactor(L, self.hdims, block=dim)
             self.xf = self.lu.solve(b)
 
 
