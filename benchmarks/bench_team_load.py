@@ -21,7 +21,19 @@ Two runs of the same data, one after the other, on the pipeline thread (one core
   time (the stride it is of: adds the INS's stride detection and the fusion's wait for
   the methods' poses), and the worst latency per 10 s window.
 
+With ``--links`` the same ten firefighters come over the field kit's links instead, as a
+real kit gets them: ``firenav play`` (another process, acting as the devices) sends ff1 and
+ff2's foot IMUs and every UWB report on a CAN bus (python-can ``udp_multicast`` on
+loopback), the other eight's foot IMUs over MAVLink UDP, and the RFID, barometer and
+breadcrumb radio lines as UDP datagrams, in real time; ``pipelines/incident-live.yaml``,
+with its device maps widened to ten firefighters, its lines on ``udp_lines`` and every
+sink it has (live view, MAVLink out, CSV, MCAP, diagnostics log, each link's raw
+recording), decodes and fuses them with the backpressure a live run has. Latency here is
+the receive clock at each ``team.pose`` minus the receive time of the newest frame the
+pipeline had taken (how far it is behind the links), and from the pose's own time.
+
     python benchmarks/bench_team_load.py --minutes 4
+    python benchmarks/bench_team_load.py --minutes 4 --links
 """
 from __future__ import annotations
 
@@ -29,6 +41,7 @@ import argparse
 import copy
 import json
 import os
+import re
 import resource
 import socket
 import sys
@@ -123,20 +136,164 @@ def run(spec, realtime: bool) -> dict:
             "worst_10s": _worst_per_window(m["at"], m["lat"], 10.0)}
 
 
+LIVE = ROOT / "pipelines" / "incident-live.yaml"
+#: the agents whose foot IMUs go over MAVLink (the CAN reference DBC has nodes for four)
+CAN_AGENTS = ("ff1", "ff2")
+
+
+def live_pipeline(plan: Path, agents: list[str], can_port: int, mav_port: int,
+                  lines_port: int, gcs_port: int) -> dict:
+    """``incident-live.yaml`` for ``agents`` (the scenario's order: UWB tag and MAVLink
+    system N are the N-th), on loopback links."""
+    doc = yaml.safe_load(LIVE.read_text())
+    doc["building"] = str(plan)
+    mav = [a for a in agents if a not in CAN_AGENTS]
+    number = {a: k + 1 for k, a in enumerate(agents)}
+    for src in doc["sources"]:
+        if src["id"] == "can":
+            src.update(interface="udp_multicast", channel="239.74.163.2",
+                       options={"port": can_port})
+        elif src["id"] == "mav":
+            src.update(url=f"udpin:127.0.0.1:{mav_port}", heartbeat_s=0,
+                       device_agents={f"sys{number[a]}/*": a for a in mav})
+    doc["sources"] = [s for s in doc["sources"] if s["id"] != "lines"] + [
+        {"id": "lines", "plugin": "udp_lines", "bind": f"127.0.0.1:{lines_port}"}]
+    for sensor in doc["sensors"]:
+        if sensor["id"] == "imu_mav":
+            sensor["frames"]["agent_map"] = {
+                f"sys{number[a]}/comp1/imu{k}": f"{a}/{foot}"
+                for a in mav for k, foot in enumerate(("left", "right"))}
+        elif sensor["id"] == "uwb":
+            sensor["tags"] = {str(number[a]): a for a in agents}
+    for sink in doc["sinks"]:
+        if sink["plugin"] == "live_view":
+            sink["port"] = 0
+        elif sink["plugin"] == "mavlink_out":
+            sink["url"] = f"udpout:127.0.0.1:{gcs_port}"
+    return doc
+
+
+def run_links(scenario: Path, minutes: float, seed: int, gcs_port: int) -> dict:
+    """The ten firefighters played over loopback links into the live pipeline (module doc)."""
+    import subprocess
+    import threading
+
+    from firenav_framework.building.geojson_format import write_geojson
+    from firenav_framework.pipeline import load_pipeline_text
+    from firenav_framework.runner import Runner
+    from firenav_framework.simulator import load_scenario, simulate
+    from firenav_framework.transports import clock
+    from bench_fieldkit_load import free_port
+
+    sc = load_scenario(scenario)
+    agents = [a.id for a in sc.model.agents]
+    ports = {"can": free_port(), "mav": free_port(), "lines": free_port()}
+    m: dict = {"newest": None, "lat": [], "lat_pose": [], "at": [], "t0": None, "poses": 0,
+               "sent": None, "flushed": 0}
+
+    def frames() -> int:
+        return sum(runner.stats.counts.get(c, {}).get("frames", 0)
+                   for c in ("can", "mav", "lines"))
+
+    def tap(stream: str, msg) -> None:
+        if stream in ("can.raw", "mav.raw", "lines.raw"):
+            m["newest"] = msg.t if m["newest"] is None else max(m["newest"], msg.t)
+        elif stream == "team.pose" and m["newest"] is not None:
+            if m["sent"] is not None and frames() >= m["sent"]:
+                m["flushed"] += 1       # every frame taken, the links quiet: the stream's end
+                return
+            now = clock.now()
+            m["t0"] = msg.t if m["t0"] is None else m["t0"]
+            m["poses"] += 1
+            m["lat"].append(now - m["newest"])
+            m["lat_pose"].append(now - msg.t)
+            m["at"].append(msg.t - m["t0"])
+
+    with tempfile.TemporaryDirectory(prefix="bench-team-links-") as out:
+        plan = Path(out) / "plan.geojson"
+        write_geojson(simulate(sc, seed, duration_s=1.0).building, plan)
+        doc = live_pipeline(plan, agents, ports["can"], ports["mav"], ports["lines"], gcs_port)
+        runner = Runner(load_pipeline_text(yaml.safe_dump(doc), base_dir=LIVE.parent),
+                        output_dir=Path(out) / "run")
+        runner.bus.taps.append(tap)
+        box: dict = {}
+        thread = threading.Thread(target=lambda: box.setdefault("result", runner.run()),
+                                  daemon=True)
+        ru0 = resource.getrusage(resource.RUSAGE_SELF)
+        thread.start()
+        while not all(getattr(runner.components.get(c), "link", None) is not None
+                      for c in ("can", "mav", "lines")):
+            time.sleep(0.05)
+        play = [sys.executable, "-m", "firenav_framework", "play", str(scenario),
+                "--seed", str(seed), "--duration", str(60.0 * minutes), "--speed", "1",
+                "--can", "udp_multicast:239.74.163.2", "--can-option", f"port={ports['can']}",
+                "--mavlink", f"udpout:127.0.0.1:{ports['mav']}",
+                "--mavlink-agents", ",".join(a for a in agents if a not in CAN_AGENTS),
+                "--lines", f"udp:127.0.0.1:{ports['lines']}"]
+        w0 = time.monotonic()
+        player = subprocess.run(play, capture_output=True, text=True, cwd=ROOT)
+        if player.returncode:
+            runner.stop()
+            thread.join(60)
+            raise SystemExit(f"firenav play failed:\n{player.stderr[-2000:]}")
+        sent = [ln for ln in player.stderr.splitlines() if "] sent " in ln]
+        counts = re.match(r".*sent (\d+) CAN frames, (\d+) MAVLink packets, (\d+) lines",
+                          sent[-1] if sent else "")
+        if counts is None:
+            raise SystemExit(f"firenav play did not say what it sent:\n{player.stderr[-2000:]}")
+        m["sent"] = sum(int(n) for n in counts.groups())
+        last, calm = frames(), time.monotonic()
+        while time.monotonic() - calm < 3.0:            # until the links stay quiet for 3 s
+            time.sleep(0.2)
+            if frames() != last:
+                last, calm = frames(), time.monotonic()
+        runner.stop()
+        thread.join(120)
+        wall = time.monotonic() - w0
+        ru1 = resource.getrusage(resource.RUSAGE_SELF)
+        result = box["result"]
+        bp = runner.backpressure
+    return {"wall_s": wall, "cpu_s": ru1.ru_utime + ru1.ru_stime - ru0.ru_utime - ru0.ru_stime,
+            "poses": m["poses"], "agents": len(result.tracks.get("team.pose", {})),
+            "faults": len(result.faults), "frames": last, "sent": sent[-1].removeprefix("[play] "),
+            "flushed": m["flushed"],
+            "degrade_steps": bp.steps if bp is not None else 0,
+            "lat": _percentiles(m["lat"]), "lat_pose": _percentiles(m["lat_pose"]),
+            "worst_10s": _worst_per_window(m["at"], m["lat"], 10.0)}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--minutes", type=float, default=4.0, help="simulated minutes of the incident")
     ap.add_argument("--seed", type=int, default=100)
     ap.add_argument("--skip-realtime", action="store_true")
+    ap.add_argument("--links", action="store_true", help="over the field kit's links, "
+                    "played by firenav play in another process (module doc)")
     a = ap.parse_args(argv)
     gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)   # the ground station's port
     gcs.bind(("127.0.0.1", 0))
     with tempfile.TemporaryDirectory(prefix="bench-team-ten-") as tmp:
         scenario = Path(tmp) / "incident_ten.yaml"
         scenario.write_text(yaml.safe_dump(ten_firefighters()))
-        spec = pipeline(scenario, a.minutes, gcs.getsockname()[1], a.seed)
         print(f"incident with 10 firefighters, {a.minutes:g} simulated min, seed {a.seed}, "
               f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} before")
+        if a.links:
+            r = run_links(scenario, a.minutes, a.seed, gcs.getsockname()[1])
+            lat, lp = r["lat"], r["lat_pose"]
+            print(f"over the links: {r['sent']}; the pipeline took {r['frames']} frames in "
+                  f"{r['wall_s']:.0f} s wall, {r['cpu_s']:.0f} s CPU "
+                  f"({100 * r['cpu_s'] / r['wall_s']:.0f} % of a core); {r['poses']} fused "
+                  f"poses of {r['agents']} firefighters, {r['faults']} faults, "
+                  f"{r['degrade_steps']} backpressure steps ({r['flushed']} poses after the last "
+                  "frame, at the stream's end, not counted below)")
+            print(f"  team.pose latency behind the links p50 / p99 / max: {lat[0]:.0f} / "
+                  f"{lat[1]:.0f} / {lat[2]:.0f} ms (goal p99 < 250 ms)")
+            print(f"  from the pose's own time: {lp[0]:.0f} / {lp[1]:.0f} / {lp[2]:.0f} ms")
+            print(f"  worst latency per 10 s window [ms]: {r['worst_10s']}")
+            print(f"  load average now {os.getloadavg()[0]:.1f}")
+            gcs.close()
+            return 0
+        spec = pipeline(scenario, a.minutes, gcs.getsockname()[1], a.seed)
         fast = run(spec, realtime=False)
         print(f"as fast as possible: {fast['sim_s']:.0f} s simulated in {fast['wall_s']:.0f} s "
               f"wall, {fast['cpu_s']:.0f} s CPU: real-time factor {fast['sim_s'] / fast['wall_s']:.2f}"
