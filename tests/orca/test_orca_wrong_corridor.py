@@ -3,16 +3,17 @@
 A 2 m entry corridor runs 41 m north (x 0..2 m); at its top two parallel 2 m corridors
 branch off east, B (y -3..-1 m) and, a 1 m block further north, A (y 0..2 m). The walker
 walks up the entry corridor and turns into A; its foot INS measures every stride 8 %
-short (a crouched gait in smoke), four times the estimator's own 3 % scale sigma, so the
+short (a crouched gait in smoke), 2.7 times the estimator's own 3 % scale sigma, so the
 dead-reckoned track turns east 3.1 m early, into B, and follows it while the walker
 follows A. B's walls hold the track exactly as A's would hold the right one: without the
 compartment doubt they shrink the covariance to B's width and the pose is trusted 3-4 m
 off. No UWB (as ff4 on ``incident``): nothing but the odometry says which corridor.
 
-The walk runs through the bundled ``orca-map-matching`` pipeline's estimator
-``dead_reckoning`` with its constraints as that pipeline configures them (anchor_range,
-wall_follow, orca: the real components, in order), scripted as the other ORCA tests'
-walker; the truth is the scripted building-frame path.
+The walk runs through ``dead_reckoning`` (its drift and integrity defaults, which the
+bundled ``orca-map-matching`` pipeline keeps; the start pose given) with the constraints
+of that pipeline's ``mm`` as it configures them (anchor_range, wall_follow, orca: the
+real components, in order), scripted as the other ORCA tests' walker; the truth is the
+scripted building-frame path.
 """
 from __future__ import annotations
 
