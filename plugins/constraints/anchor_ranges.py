@@ -29,11 +29,13 @@ class TagParams(Params):
 
 
 class AnchorRanges:
-    """The building's anchor positions (3,) ENU [m] by anchor id, and the range screen."""
+    """The building's anchor positions (3,) ENU [m] and floors by anchor id, and the range
+    screen."""
 
     def __init__(self, building) -> None:
         self.positions: dict[str, np.ndarray] = {
             a.id: np.asarray(a.position, float) for a in building.anchors}
+        self.floors: dict[str, int] = {a.id: int(a.floor) for a in building.anchors}
 
     def anchor_of(self, msg: Range, count: Callable[[str], None]) -> str | None:
         """The anchor end of a usable range, or None after counting why it is not usable

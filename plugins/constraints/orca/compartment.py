@@ -6,9 +6,10 @@ tightly as the right one's. That question is answered only by the entry fix, the
 ranges and the odometry walked since. :class:`CompartmentDoubt` keeps a horizontal
 covariance (2, 2) [m^2] (ENU) of that evidence alone: its largest sigma grows by
 ``growth`` metres per metre walked (the INS's drift along and across the path), and
-every range to an anchor narrows it along the line to that anchor (a scalar Kalman
-update with the range's sigma). It never sees the walls, so walking a wrong corridor
-does not shrink it.
+every range to an anchor in line of sight narrows it along the line to that anchor (a
+scalar Kalman update with the range's sigma; the constraint passes no range through
+walls or a slab, whose bias the sigma does not state). It never sees the walls, so
+walking a wrong corridor does not shrink it.
 """
 from __future__ import annotations
 

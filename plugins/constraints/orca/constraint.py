@@ -118,7 +118,7 @@ class _Agent:
     refused: bool = False                   # this step's reset was refused
     held_since: float | None = None         # start [s] of the hold since a refused reset
     doubt: CompartmentDoubt | None = None   # which compartment, from odometry and ranges only
-    new_ranges: list[tuple[np.ndarray, float]] = field(default_factory=list)  # (anchor, sigma) since the last step
+    new_ranges: list[tuple[str, float, bool]] = field(default_factory=list)  # (anchor id, sigma, nlos) since the last step
 
 
 @dataclass(frozen=True)
@@ -234,7 +234,7 @@ class OrcaConstraint(AnchorRangeInput):
     def take_range(self, msg: Range, anchor: str) -> None:
         me = self.agents[msg.agent]
         me.ranges[anchor] = (msg.t, msg.range_m, msg.sigma_m)
-        me.new_ranges.append((self._anchors.positions[anchor], msg.sigma_m))
+        me.new_ranges.append((anchor, msg.sigma_m, msg.nlos))
 
     def _fresh_ranges(self, agent: _Agent, t: float, speed: float) -> list[RangeFix]:
         """Ranges no older than ``range_max_age`` at time ``t`` [s], each sigma widened by
@@ -290,16 +290,24 @@ class OrcaConstraint(AnchorRangeInput):
 
     def _update_doubt(self, me: _Agent, step: OdometryStep) -> None:
         """Widen the compartment doubt by the step's odometry, then narrow it by the
-        ranges taken since the last step (tag above the floor of ``prev``)."""
+        ranges taken since the last step (tag above the floor of ``prev``) that reach the
+        anchor in line of sight: on its floor, not flagged NLOS, no wall of the plan
+        between ``prev`` and the anchor. A range through walls or a slab is longer by an
+        unknown bias (metres through a floor) that its sigma does not state: it would
+        narrow the doubt on evidence it does not hold."""
         if me.doubt is None:
             me.doubt = CompartmentDoubt(self.params.compartment_growth)
         delta = step.odometry.delta
         me.doubt.walk(math.hypot(delta[0], delta[1]))
-        tag = np.array([step.prev[0], step.prev[1],
-                        self._building.floors[self._building.floor_of_z(step.prev[2])].z
-                        + self.params.tag_height])
-        for anchor, sigma in me.new_ranges:
-            me.doubt.range_to(tag, anchor, sigma)
+        floor_idx = self._building.floor_of_z(step.prev[2])
+        here = self._tables(floor_idx)
+        tag = np.array([step.prev[0], step.prev[1], here.floor.z + self.params.tag_height])
+        for anchor, sigma, nlos in me.new_ranges:
+            position = self._anchors.positions[anchor]
+            if nlos or self._anchors.floors[anchor] != floor_idx or \
+                    here.walls.crosses_one(tag[:2], position[:2]):
+                continue
+            me.doubt.range_to(tag, position, sigma)
         me.new_ranges.clear()
 
     def _held_in_doubt(self, me: _Agent, step: OdometryStep, fix: StepCorrection | None
