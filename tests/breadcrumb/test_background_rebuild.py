@@ -332,3 +332,46 @@ def test_background_start_outside_its_range_is_refused():
             assert "background_start" in str(exc)
         else:
             raise AssertionError(f"background_start={bad} accepted")
+
+
+def test_refactorisation_keeps_every_walkers_chain_ends_active():
+    """The hot nodes re-activated after a refactorisation are the chains' ends first: each
+    walker's latest state and heading node (its next odometry edge extends both), even when
+    ranges to older nodes were touched since (a team's round of updates). The heading enters
+    its state's rotated odometry edge through a rank-1 gain, so it stays an end until its own
+    next heading is bordered from it."""
+    F = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    walk, prior = 1e-4 * np.eye(3), 1e-3 * np.eye(3)
+    gen = GeneralizedElectricalNetwork(3, relinearize_sigma=math.inf,
+                                       max_active_dims=10 ** 6, hot_nodes=4)
+    gen.add_anchor("base", np.zeros(3))
+    rng = np.random.default_rng(3)
+    steps = 12
+    for k in range(steps):
+        for w, side in (("a", 1.0), ("b", -1.0)):
+            key, h = f"{w}{k}", f"{w}{k}/h"
+            gen.add_node(key)
+            gen.add_node(h)
+            step = np.array([1.0, side * 0.1, 0.0]) + rng.normal(0, 0.02, 3)
+            if k == 0:
+                gen.add_linear([h], np.eye(3), prior, np.zeros(3))
+                gen.add_relative_position(key, "base", step, 0.01 * np.eye(3))
+            else:
+                gen.add_linear([h, f"{w}{k - 1}/h"], np.hstack([np.eye(3), -F]), walk,
+                               np.zeros(3))
+                gen.add_rotated_position(key, f"{w}{k - 1}", h, step, 0.01 * np.eye(3))
+    for old in ("a3", "a4", "b5", "b6"):            # ranges to older states, touched last
+        r = float(np.linalg.norm(gen.estimate(f"b{steps - 1}") - gen.estimate(old)))
+        gen.add_range(f"b{steps - 1}", old, r, 0.01)
+    gen.rebuild()
+    ends = [f"a{steps - 1}", f"a{steps - 1}/h", f"b{steps - 1}", f"b{steps - 1}/h"]
+    assert [gen.solver.is_active(gen.id_of(k)) for k in ends] == [True] * 4
+    before = gen.solver.activated
+    for w in ("a", "b"):                            # each walker's next step: no activation
+        key, h, last = f"{w}{steps}", f"{w}{steps}/h", f"{w}{steps - 1}"
+        gen.add_node(key)
+        gen.add_node(h)
+        gen.add_linear([h, f"{last}/h"], np.hstack([np.eye(3), -F]), walk, np.zeros(3))
+        gen.add_rotated_position(key, last, h, np.array([1.0, 0.0, 0.0]), 0.01 * np.eye(3))
+        gen.estimate(key)
+    assert gen.solver.activated == before

@@ -91,14 +91,17 @@ class _Worker(threading.Thread):
     stretch an update it overlaps). ``assemble`` returns an object with ``L``, ``b`` and
     ``nodes``; ``touch`` and ``clock`` are the caller's touch counters at the snapshot
     (the order in which the next refactorisation's hot nodes are chosen), ``capacity``
-    the active-set dimensions to make room for (at least the caller's). Errors are
+    the active-set dimensions to make room for (at least the caller's); ``end`` the
+    chain ends at the snapshot (:meth:`IncrementalBlue.recent_nodes`). Errors are
     kept and re-raised on the caller's thread by :meth:`result`."""
 
     def __init__(self, assemble: Callable[[], object], hot: list[int], dim: int,
-                 max_active_dims: int, touch: np.ndarray, clock: int, capacity: int) -> None:
+                 max_active_dims: int, touch: np.ndarray, end: np.ndarray, clock: int,
+                 capacity: int) -> None:
         super().__init__(name="gen-refactorisation", daemon=True)
         self._assemble, self._hot, self._dim = assemble, hot, dim
         self._max_active_dims, self._touch, self._clock = max_active_dims, touch, clock
+        self._end = end
         self._capacity = capacity
         self._cond = threading.Condition()
         self._ops: list[tuple[str, tuple]] = []      # logged by the caller
@@ -120,6 +123,7 @@ class _Worker(threading.Thread):
             solver = IncrementalBlue(self._dim, max_active_dims=self._max_active_dims)
             solver._grow_ids(len(self._touch))
             solver._touch[:len(self._touch)] = self._touch
+            solver._end[:len(self._end)] = self._end
             solver._clock = self._clock
             solver.install(f)
             solver.reserve(self._capacity)
@@ -206,6 +210,7 @@ class IncrementalBlue:
         self._hinv = np.zeros((0, 0))
         self._xf_old = np.zeros(0)
         self._touch = np.zeros(0, np.int64)      # node id -> counter of the last touch
+        self._end = np.zeros(0, bool)            # node id -> the end of a chain (see border)
         self._clock = 0
         self.rebuilds = 0
         self.activated = 0
@@ -219,9 +224,9 @@ class IncrementalBlue:
         if n <= len(self._slot):
             return
         size = max(n, 2 * len(self._slot), 64)
-        for name, fill in (("_slot", -1), ("_fblock", -1), ("_touch", 0)):
+        for name, fill in (("_slot", -1), ("_fblock", -1), ("_touch", 0), ("_end", False)):
             old = getattr(self, name)
-            new = np.full(size, fill, np.int64)
+            new = np.full(size, fill, old.dtype)
             new[:len(old)] = old
             setattr(self, name, new)
 
@@ -360,6 +365,11 @@ class IncrementalBlue:
         (eq. 12), leaving no parents. The edge adds no information on the parents (the new
         node absorbs it), so the BLUE of the others is unchanged and
         ``Sigma_n. = G Sigma_P.``, ``Sigma_nn = G Sigma_PP G^T + cov``.
+
+        The new node becomes the end of a chain, and every parent with an invertible gain
+        (which the new node continues: a walker's previous state, its previous heading)
+        stops being one; a parent entering through a rank-deficient gain (the heading of
+        a rotated odometry edge) stays an end.
         """
         self._grow_ids(new + 1)
         if self.is_represented(new) or new in self._hidden:
@@ -386,6 +396,10 @@ class IncrementalBlue:
             sig[np.ix_(nd, nd)] = cross[:, pd] @ G.T + cov
             x[nd] = z + G @ x[pd]
         self._touch_nodes([new, *parents])
+        self._end[new] = True
+        for p, g in zip(parents, gains):
+            if np.linalg.matrix_rank(np.asarray(g, float)) == self.d:
+                self._end[p] = False
 
     def update(self, nodes: Sequence[int], J: np.ndarray, R: np.ndarray, y: np.ndarray) -> None:
         """Add the linear(ised) measurement ``y = J x_nodes + e``, ``e ~ (0, R)``.
@@ -475,8 +489,12 @@ class IncrementalBlue:
         return out
 
     def recent_nodes(self, count: int) -> list[int]:
-        """The ``count`` most recently touched represented nodes (to re-activate after a rebuild)."""
-        order = np.argsort(-self._touch, kind="stable")[:count + len(self._hidden)]
+        """``count`` represented nodes to re-activate after a rebuild: the ends of chains
+        first (:meth:`border`: a walker's latest state and heading, a breadcrumb), then
+        the others, each most recently touched first. The next edges extend the chains
+        from their ends, however long ago an end was last touched (in a team's round of
+        updates the others' ranges touch many nodes in between)."""
+        order = np.lexsort((-self._touch, ~self._end))[:count + len(self._hidden)]
         return [int(n) for n in order if self._touch[n] > 0 and self.is_represented(int(n))][:count]
 
     # -- rebuild ----------------------------------------------------------------------------
@@ -509,7 +527,7 @@ class IncrementalBlue:
         if self._worker is not None:
             raise RuntimeError("a background rebuild is already pending")
         self._worker = _Worker(assemble, list(hot), self.d, self.max_active_dims,
-                               self._touch.copy(), self._clock,
+                               self._touch.copy(), self._end.copy(), self._clock,
                                max(self._cap, self.pending_capacity))
         self._drop_worker = weakref.finalize(self, self._worker.drop)
         self._worker.start()
@@ -538,7 +556,8 @@ class IncrementalBlue:
         self._drop_worker.detach()
         solver, applied = worker.result()
         for name in ("_lu", "_xf", "_fblock", "_cap", "_sig", "_x", "_slot", "_slot_node",
-                     "_hidden", "_old_slots", "_hinv", "_xf_old", "_touch", "_clock"):
+                     "_hidden", "_old_slots", "_hinv", "_xf_old", "_touch", "_end",
+                     "_clock"):
             setattr(self, name, getattr(solver, name))
         self.rebuilds += 1
         self.activated += solver.activated
