@@ -445,6 +445,8 @@ def time_ours(seed: int, steps: int, heading_states: bool, pace: float = 0.0,
     gen, lat = run_ours(updates, heading_states=heading_states, cpu=cpu, pace=pace,
                         rebuild_lag=rebuild_lag, handover_wait=handover_wait,
                         settings=settings)
+    if hasattr(gen, "finish_rebuild"):
+        gen.finish_rebuild()    # no worker thread left running into the interpreter's exit
     return {"wall": (1e3 * lat).tolist(), "cpu": (1e3 * cpu).tolist(),
             "rebuilds": gen.solver.rebuilds,
             "background": getattr(gen, "background_rebuilds", 0),
