@@ -140,3 +140,26 @@ def test_nearly_collinear_ranges_claim_no_more_across_their_line_than_they_know(
     assert across @ cov @ across > 10.0
     # along their line the filter (plus the model floor) knows better than one step's ranges
     assert along @ cov @ along == pytest.approx(0.01 + floor)
+
+
+def test_ranges_from_an_anchor_on_another_floor_are_counted_and_not_used():
+    """An anchor on the floor above (its range through the slab, 0.4 m long): no wall of
+    the walker's floor crosses the line, but the range is left out and counted; with
+    ``other_floors`` it is used."""
+    from firenav_framework.building import Building, Floor
+    upstairs = Anchor("uwb_up", "uwb", np.array([0.0, 0.0, 4.0]), 1)
+    floors = [Floor(index=k, z=3.0 * k, height=3.0, walls=np.array(FAR, float), doors=[])
+              for k in (0, 1)]
+    for other_floors in (False, True):
+        w = Walker(Building("two", floors, anchors=[upstairs]), (5.0, 0.0), 0.0,
+                   extra=[(AnchorRangeConstraint, {"other_floors": other_floors})])
+        w.step(0.5, 0.0)
+        r = math.sqrt(5.5 ** 2 + (TAG - 4.0) ** 2) + 0.4
+        w.range("uwb_up", r)
+        end = w.step(0.5, 0.0)
+        counts = w.counts()
+        if other_floors:
+            assert counts["ranges_used"] == 1 and end[0] > 6.1     # pushed off by the bias
+        else:
+            assert counts.get("ranges_other_floor") == 1 and "ranges_used" not in counts
+            np.testing.assert_allclose(end[:2], [6.0, 0.0], atol=1e-12)

@@ -12,8 +12,8 @@ every range taken between two steps is an observation of it, at the position
 interpolated along the step to the range's time (tag ``tag_height`` above the floor),
 and the estimated error is fed back at once as a translation in the update matrix
 (eq. 8), so it moves this and every later step. Ranges through a wall of the floor plan
-(from the estimated position) or flagged NLOS by the sensor are not used: their delay
-only lengthens them; ranges farther off than ``gate`` sigmas are counted and dropped;
+(from the estimated position), from an anchor on another floor (through a slab) or flagged
+NLOS by the sensor are not used: their delay only lengthens them; ranges farther off than ``gate`` sigmas are counted and dropped;
 within ``min_distance`` of the anchor (horizontally) a range says little about
 direction and is skipped; a range more than ``max_age`` older than the step it falls in
 is stale.
@@ -43,7 +43,7 @@ MAX_PENDING = 6000
 
 @dataclass
 class _Agent:
-    pending: deque = field(default_factory=deque)  # (t, anchor xyz (3,), range, sigma)
+    pending: deque = field(default_factory=deque)  # (t, anchor xyz (3,), its floor, range, sigma)
     cov: np.ndarray | None = None                  # (2, 2) position error covariance [m^2]
     t: float | None = None                         # time of the last step [s]
 
@@ -69,6 +69,9 @@ class AnchorRangeConstraint(AnchorRangeInput):
         """use ranges the sensor flags NLOS (with their sigma)"""
         through_walls: bool = param(False)
         """use ranges whose line of sight from the estimated position crosses a wall of the plan"""
+        other_floors: bool = param(False)
+        """use ranges from an anchor on another floor than the walker's (through a slab, longer
+        by a bias the range's sigma does not state)"""
         max_age: float = param(2.0, unit="s", gt=0)
         """ranges older than this when their step comes are dropped"""
 
@@ -98,7 +101,8 @@ class AnchorRangeConstraint(AnchorRangeInput):
         if len(me.pending) >= MAX_PENDING:
             me.pending.popleft()            # no step for a long time (standing still)
             self.ctx.count("ranges_stale")
-        me.pending.append((msg.t, self._anchors.positions[anchor], msg.range_m, msg.sigma_m))
+        me.pending.append((msg.t, self._anchors.positions[anchor], self._anchors.floors[anchor],
+                           msg.range_m, msg.sigma_m))
 
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         p = self.params
@@ -114,13 +118,16 @@ class AnchorRangeConstraint(AnchorRangeInput):
             due.append(me.pending.popleft())
         if not due:
             return None
-        floor = self._building.floors[self._building.floor_of_z(step.prev[2])]
-        tag_z = floor.z + p.tag_height
+        floor_idx = self._building.floor_of_z(step.prev[2])
+        tag_z = self._building.floors[floor_idx].z + p.tag_height
         shift = np.zeros(2)
         info = np.zeros((2, 2))           # what the used ranges know of the position
-        for t_r, anchor, r, sigma in due:
+        for t_r, anchor, anchor_floor, r, sigma in due:
             if step.t - t_r > p.max_age:
                 self.ctx.count("ranges_stale")
+                continue
+            if not p.other_floors and anchor_floor != floor_idx:
+                self.ctx.count("ranges_other_floor")
                 continue
             f = 1.0 if step.t <= t0 else min(max((t_r - t0) / (step.t - t0), 0.0), 1.0)
             pos = step.prev[:2] + f * move + shift
