@@ -270,9 +270,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--links", action="store_true", help="over the field kit's links, "
                     "played by firenav play in another process (module doc)")
     a = ap.parse_args(argv)
-    gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)   # the ground station's port
-    gcs.bind(("127.0.0.1", 0))
-    with tempfile.TemporaryDirectory(prefix="bench-team-ten-") as tmp:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as gcs, \
+            tempfile.TemporaryDirectory(prefix="bench-team-ten-") as tmp:
+        gcs.bind(("127.0.0.1", 0))                          # the ground station's port
         scenario = Path(tmp) / "incident_ten.yaml"
         scenario.write_text(yaml.safe_dump(ten_firefighters()))
         print(f"incident with 10 firefighters, {a.minutes:g} simulated min, seed {a.seed}, "
@@ -291,7 +291,6 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  from the pose's own time: {lp[0]:.0f} / {lp[1]:.0f} / {lp[2]:.0f} ms")
             print(f"  worst latency per 10 s window [ms]: {r['worst_10s']}")
             print(f"  load average now {os.getloadavg()[0]:.1f}")
-            gcs.close()
             return 0
         spec = pipeline(scenario, a.minutes, gcs.getsockname()[1], a.seed)
         fast = run(spec, realtime=False)
@@ -312,7 +311,6 @@ def main(argv: list[str] | None = None) -> int:
                   f"{lp[0]:.0f} / {lp[1]:.0f} / {lp[2]:.0f} ms")
             print(f"  worst latency per 10 s window [ms]: {live['worst_10s']}")
             print(f"  load average now {os.getloadavg()[0]:.1f}")
-    gcs.close()
     return 0
 
 

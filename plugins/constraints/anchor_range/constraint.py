@@ -13,7 +13,8 @@ interpolated along the step to the range's time (tag ``tag_height`` above the fl
 and the estimated error is fed back at once as a translation in the update matrix
 (eq. 8), so it moves this and every later step. Ranges through a wall of the floor plan
 (from the estimated position), from an anchor on another floor (through a slab) or flagged
-NLOS by the sensor are not used: their delay only lengthens them; ranges farther off than ``gate`` sigmas are counted and dropped;
+NLOS by the sensor are not used: their delay only lengthens them; ranges farther off than
+``gate`` sigmas are counted and dropped;
 within ``min_distance`` of the anchor (horizontally) a range says little about
 direction and is skipped; a range more than ``max_age`` older than the step it falls in
 is stale.
@@ -43,7 +44,7 @@ MAX_PENDING = 6000
 
 @dataclass
 class _Agent:
-    pending: deque = field(default_factory=deque)  # (t, anchor xyz (3,), its floor, range, sigma)
+    pending: deque = field(default_factory=deque)  # (t, anchor id, range, sigma)
     cov: np.ndarray | None = None                  # (2, 2) position error covariance [m^2]
     t: float | None = None                         # time of the last step [s]
 
@@ -101,8 +102,7 @@ class AnchorRangeConstraint(AnchorRangeInput):
         if len(me.pending) >= MAX_PENDING:
             me.pending.popleft()            # no step for a long time (standing still)
             self.ctx.count("ranges_stale")
-        me.pending.append((msg.t, self._anchors.positions[anchor], self._anchors.floors[anchor],
-                           msg.range_m, msg.sigma_m))
+        me.pending.append((msg.t, anchor, msg.range_m, msg.sigma_m))
 
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         p = self.params
@@ -122,13 +122,14 @@ class AnchorRangeConstraint(AnchorRangeInput):
         tag_z = self._building.floors[floor_idx].z + p.tag_height
         shift = np.zeros(2)
         info = np.zeros((2, 2))           # what the used ranges know of the position
-        for t_r, anchor, anchor_floor, r, sigma in due:
+        for t_r, anchor_id, r, sigma in due:
             if step.t - t_r > p.max_age:
                 self.ctx.count("ranges_stale")
                 continue
-            if not p.other_floors and anchor_floor != floor_idx:
+            if not p.other_floors and self._anchors.floors[anchor_id] != floor_idx:
                 self.ctx.count("ranges_other_floor")
                 continue
+            anchor = self._anchors.positions[anchor_id]
             f = 1.0 if step.t <= t0 else min(max((t_r - t0) / (step.t - t0), 0.0), 1.0)
             pos = step.prev[:2] + f * move + shift
             d = pos - anchor[:2]

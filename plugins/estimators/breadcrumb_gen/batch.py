@@ -65,9 +65,7 @@ def block_ordering(L: sp.spmatrix, block: int = 1) -> np.ndarray:
     pattern.data[:] = -1.0
     degree = -np.asarray(pattern.sum(axis=1)).ravel()
     surrogate = (pattern + sp.diags(degree + 1.0)).tocsc()
-    lu = spla.splu(surrogate, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                   options={"SymmetricMode": True})
-    nodes = np.argsort(lu.perm_c)
+    nodes = np.argsort(factorize(surrogate).perm_c)
     return (nodes[:, None] * block + np.arange(block)).ravel()
 
 
