@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from firenav_framework import Range
+from firenav_framework import BreadcrumbDrop, Odometry, Range
 from firenav_framework.integrity import gaussian_protection_radius
 from firenav_framework.testing import run_component
 from firenav_plugins.estimators.breadcrumb_gen import BreadcrumbGenEstimator
@@ -17,7 +17,10 @@ from tests.breadcrumb.test_estimator import PARAMS, errors, walk
 
 def test_protection_radius_and_trust_come_from_the_published_covariance():
     msgs, truth, _ = walk(laps=3, drift_deg_per_lap=10.0)
-    rec = run_component(BreadcrumbGenEstimator, PARAMS, msgs)
+    # the graph's odometry model is right here (the drift is the heading states' own), so
+    # its covariance is honest as it is; the doubt beside it has its own test below
+    rec = run_component(BreadcrumbGenEstimator,
+                        {**PARAMS, "consistency": {"doubt_per_m": 0.0}}, msgs)
     poses = rec.on("pose")
     pr = np.array([p.protection_radius for p in poses])
     expect = np.array([gaussian_protection_radius(p.cov[:2, :2], 0.99) for p in poses])
@@ -60,9 +63,12 @@ def test_a_contradicting_link_is_down_weighted_counted_said_and_widens():
     assert not poses[k].trusted
     assert poses[-1].protection_radius < 1.5 * ref[-1].protection_radius
     # the paper's rule (consistency off) drops it: no widening
-    rec2, _, _, _ = contradicted({**PARAMS, "consistency": {"enabled": False}})
+    paper = {**PARAMS, "consistency": {"enabled": False}}
+    rec2, _, _, _ = contradicted(paper)
     p2 = rec2.on("pose")
-    assert abs(p2[k].protection_radius - ref[k].protection_radius) < 0.2
+    ref2 = run_component(BreadcrumbGenEstimator, paper,
+                         walk(laps=2, drift_deg_per_lap=2.0)[0]).on("pose")
+    assert abs(p2[k].protection_radius - ref2[k].protection_radius) < 0.2
 
 
 def test_path_loss_model_is_learned_from_links_of_known_length():
@@ -181,3 +187,69 @@ def test_short_readings_from_one_place_do_not_make_a_wrong_pose_trusted():
             assert off and pose.trusted and m2 > 5.99
         else:
             assert not (off and pose.trusted) and m2 <= 5.99
+
+
+def walk_with_short_steps(scale: float = 0.92):
+    """Issue 15 (field fire floor): an error the graph's odometry model cannot represent.
+    A firefighter walks 40 m east of the base station in 1 m steps, drops bc1 at 10 m,
+    walks back to it (an encounter there and 1 m on) and on 5 m; the INS measures every step
+    ``scale`` of its length and says it is good to 2 cm. Returns (messages, the true x
+    [m] of each pose, the distance walked by the odometry at each pose [m])."""
+    xs = [float(k) for k in range(1, 41)] + [float(x) for x in range(39, 4, -1)]
+    msgs, pos, prev, walked = [], np.zeros(3), 0.0, []
+    for k, x in enumerate(xs):
+        t = 10.0 + k
+        dm = np.array([(x - prev) * scale, 0.0, 0.0])
+        pos, prev = pos + dm, x
+        walked.append(abs(dm[0]) + (walked[-1] if walked else 0.0))
+        msgs.append(("odo", Odometry(t=t, agent="ff1", device="ff1/ins", t_start=t - 1.0,
+                                     delta=dm, dheading=0.0, cov=np.diag([4e-4] * 3 + [1e-4]),
+                                     position=pos.copy(), heading=0.0)))
+        if x == 10.0 and k < 40:
+            msgs.append(("drops", BreadcrumbDrop(t=t, agent="ff1", device="ff1/dispenser",
+                                                 node_id="bc1")))
+        elif x in (10.0, 9.0):
+            msgs.append(("enc", Range(t=t, agent="ff1", a="ff1", b="bc1", range_m=0.5,
+                                      sigma_m=1.0, method="rssi_encounter")))
+    return msgs, np.array(xs), np.array(walked)
+
+
+def test_the_doubt_grows_with_the_distance_walked_whatever_the_odometry_model_says():
+    """The INS's steps are 8 % short: 3.2 m off after 40 m, while the graph, believing
+    the INS's 2 cm and ``odometry.noise_per_m`` (position-only states), says about 0.6 m
+    per axis and trusts the pose. The doubt (``consistency.doubt_per_m``, 0.1 by default),
+    computed by hand: its std grows from the start's 0.5 m by 0.1 m per metre walked, bc1
+    inherits it at the drop (plus the drop's 0.3 m squared), and each encounter at bc1
+    fuses it with that plus the encounter's 1 m squared, but not below bc1's own (the
+    second would fuse it below). It is added to the graph's covariance and moves
+    nothing."""
+    msgs, x, walked = walk_with_short_steps()
+    base = {"base": {"position": [0.0, 0.0, 0.0]}, "learn": {"enabled": False},
+            "radio": {"near_sigma": 0.6}, "odometry": {"noise_per_m": 0.05},
+            "heading": {"enabled": False}}
+    off = run_component(BreadcrumbGenEstimator,
+                        {**base, "consistency": {"doubt_per_m": 0.0}}, msgs).on("pose")
+    on = run_component(BreadcrumbGenEstimator, base, msgs).on("pose")
+    sigma, expect = 0.5, []
+    for k, w in enumerate(walked):
+        sigma += 0.1 * (w - (walked[k - 1] if k else 0.0))
+        expect.append(sigma ** 2)
+        if x[k] == 10.0 and k < 40:                      # the drop
+            crumb = sigma ** 2 + 0.3 ** 2
+        elif k >= 40 and x[k] in (10.0, 9.0):            # at bc1, after this pose
+            v = crumb + 1.0
+            sigma = math.sqrt(max(sigma ** 2 * v / (sigma ** 2 + v), crumb))
+    got = np.array([p.cov[0, 0] - q.cov[0, 0] for p, q in zip(on, off)])
+    np.testing.assert_allclose(got, expect, rtol=1e-6)
+    np.testing.assert_allclose([p.cov[1, 1] - q.cov[1, 1] for p, q in zip(on, off)], expect,
+                               rtol=1e-6)
+    np.testing.assert_allclose([p.position for p in on], [p.position for p in off])
+
+    def judged(poses):
+        err = np.array([p.position[0] for p in poses[:40]]) - x[:40]
+        m2 = np.array([e * e / p.cov[0, 0] for e, p in zip(err, poses)])
+        wrong = np.array([p.trusted for p in poses[:40]]) & (np.abs(err) > 3.0)
+        return np.mean(m2 <= 5.99), wrong.any()
+
+    assert judged(off)[1] and judged(off)[0] < 0.9       # without it: confidently wrong
+    assert judged(on) == (1.0, False)

@@ -51,8 +51,11 @@ length (``learn``, radio_model.py) and corrects the sensor's ranges and encounte
 
 Integrity: the published horizontal covariance is the graph's marginal (eq. 5) scaled by
 the running normalised innovation of the firefighter's radio links when that says the
-graph is optimistic (``consistency``), plus the size of an unresolved contradiction; the
-protection radius is its 99 % circle and ``trusted`` is derived from it (``integrity``).
+graph is optimistic (``consistency``), plus the size of an unresolved contradiction, plus
+a doubt kept beside the graph that grows with the distance walked since a fixed node
+(base station, breadcrumb) last confirmed the track (``consistency.doubt_per_m``): it does
+not rest on the graph's odometry model being right; the protection radius is its 99 %
+circle and ``trusted`` is derived from it (``integrity``).
 
 Ports: ``pose`` - one :class:`PoseEstimate` per odometry step per firefighter (the
 newest state, covariance as above); ``breadcrumbs`` - a :class:`PoseEstimate` per
@@ -101,6 +104,7 @@ class _Agent:
     nearby: dict = field(default_factory=dict)   # fixed node -> path [m] at its last range
     nis: float = 1.0          # running normalised innovation of its radio links [-]
     widen: float = 0.0        # extra horizontal variance after a contradiction [m^2]
+    doubt: float = 0.0        # doubt variance per horizontal axis (consistency.doubt_per_m) [m^2]
     contradicted: bool = False          # since the last contradiction, no consistent link
     last_said: float = -math.inf        # data time of the last contradiction diagnostic [s]
     unsaid: int = 0                     # contradictions since then
@@ -130,6 +134,7 @@ class BreadcrumbGenEstimator(Estimator):
                                             lp.min_samples) if lp.enabled else None
         self._dropped_by: dict[str, tuple[str, int]] = {}   # crumb node -> (agent, step)
         self._learnt_at: dict[tuple[str, str], float] = {}  # link -> t of its last sample
+        self._doubt: dict[str, float] = {}   # fixed node -> its doubt variance per axis [m^2]
 
     # -- set-up ------------------------------------------------------------------------------
     def start(self) -> None:
@@ -152,6 +157,7 @@ class BreadcrumbGenEstimator(Estimator):
                                  "base.position")
             pos = anchor.position
         self.gen.add_anchor(p.base.id, np.asarray(pos, float))
+        self._doubt[p.base.id] = 0.0
         self._base_ready = True
 
     def reset(self, agent: str) -> None:
@@ -213,6 +219,7 @@ class BreadcrumbGenEstimator(Estimator):
                 else:
                     self.gen.add_rotated_position(key, prev.key, heading, delta, cov)
             walked = prev.path + min(step, p.odometry.max_speed * dt)
+            self._grow_doubt(st, walked - prev.path)
             st.states.append(_State(key, msg.t, step / dt, heading, st.count - 1, walked))
             st.heading_var += float(np.asarray(msg.cov)[3, 3])
             self._release(msg.agent, st, final=False)
@@ -232,6 +239,7 @@ class BreadcrumbGenEstimator(Estimator):
         base = self.gen.estimate(p.base.id)
         self.gen.add_relative_position(key, p.base.id, start - base,
                                        np.diag([p.start.sigma_position ** 2] * 2 + [0.1 ** 2]))
+        st.doubt = p.start.sigma_position ** 2 if self._doubting else 0.0
         heading = None
         if p.heading.enabled:
             heading = f"{key}/heading"
@@ -490,7 +498,36 @@ class BreadcrumbGenEstimator(Estimator):
             return None
         out = cov.copy()
         out[:2, :2] *= scale
+        if absolute:
+            self._narrow_doubt(agent, na, nb, float(out[0, 0]))
         return out
+
+    @property
+    def _doubting(self) -> bool:
+        """Whether the doubt of ``consistency.doubt_per_m`` is kept."""
+        c = self.params.consistency
+        return c.enabled and c.doubt_per_m > 0
+
+    def _grow_doubt(self, st: _Agent, walked: float) -> None:
+        """The doubt's std per axis grows by ``consistency.doubt_per_m`` times the
+        ``walked`` [m] of a step, whatever the graph's odometry model says of the step."""
+        if self._doubting:
+            st.doubt = (math.sqrt(st.doubt) + self.params.consistency.doubt_per_m * walked) ** 2
+
+    def _narrow_doubt(self, agent: str, na: str, nb: str, var: float) -> None:
+        """A firefighter placed at a fixed node by a link of horizontal variance ``var``
+        [m^2] per axis: its doubt is fused with the link's variance plus the node's doubt
+        (the base station's is 0, a breadcrumb's its dropper's at the drop), but not below
+        the node's own: links from different places average their noise, never the
+        node's error they share. Links between firefighters do not narrow it: they say
+        nothing of where the pair is."""
+        st = self._agents.get(agent)
+        node = next((self._doubt[n] for n in (na, nb) if n in self._doubt), None)
+        if st is None or node is None or not self._doubting:
+            return
+        v = node + var
+        if st.doubt + v > 0:
+            st.doubt = max(st.doubt * v / (st.doubt + v), min(st.doubt, node))
 
     def _judge(self, agent: str, t: float, z: float, nis: float, miss: float,
                where: np.ndarray, what: str, absolute: bool = True) -> float | None:
@@ -623,6 +660,7 @@ class BreadcrumbGenEstimator(Estimator):
         self.gen.add_relative_position(msg.node_id, s.key, np.zeros(3), np.diag([v, v, 0.05]))
         self._crumbs[msg.node_id] = msg.node_id
         self._dropped_by[msg.node_id] = (msg.agent, s.index)
+        self._doubt[msg.node_id] = st.doubt + v
         self._touched.add(msg.node_id)
 
     def _kicked(self, msg: BreadcrumbDrop) -> None:
@@ -634,6 +672,7 @@ class BreadcrumbGenEstimator(Estimator):
         self.gen.add_node(new)
         self.gen.add_relative_position(new, old, np.zeros(3), np.diag([k, k, 0.05]))
         self._crumbs[msg.node_id] = new
+        self._doubt[new] = self._doubt.get(old, 0.0) + k
         for pair in [pr for pr in self._static if old in pr]:
             del self._static[pair]                       # its fixed links start afresh
         self.ctx.count("breadcrumbs_relocated")
@@ -657,8 +696,8 @@ class BreadcrumbGenEstimator(Estimator):
             heading += float(x[1, 0])
             cov[3, 3] = float(c[1, 0, 0])
         # the graph's marginal, scaled by how far its radio innovations say it is
-        # optimistic, and widened by a contradiction not yet resolved
-        cov[:2, :2] = cov[:2, :2] * max(st.nis, 1.0) + np.eye(2) * st.widen
+        # optimistic, widened by a contradiction not yet resolved and by the doubt
+        cov[:2, :2] = cov[:2, :2] * max(st.nis, 1.0) + np.eye(2) * (st.widen + st.doubt)
         ip = self.params.integrity
         pr = gaussian_protection_radius(cov[:2, :2], ip.containment)
         self.ctx.publish("pose", PoseEstimate(

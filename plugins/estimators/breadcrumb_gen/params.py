@@ -107,7 +107,8 @@ class RadioLearning(Params):
 
 
 class Consistency(Params):
-    """How the published covariance is kept honest against the radio (integrity)."""
+    """How the published covariance is kept honest against the radio and the odometry
+    (integrity)."""
 
     enabled: bool = param(True)
     """judge radio links against the graph as below (false: the paper's rule, a link beyond
@@ -119,6 +120,14 @@ class Consistency(Params):
     """after a contradiction the published covariance carries the contradiction's size squared
     until a link within radio.weaken confirms the graph; each link between weaken and gate
     multiplies it by this"""
+    doubt_per_m: float = param(0.1, ge=0)
+    """growth of a doubt kept beside the graph from the distance walked alone: its std per
+    horizontal axis grows by this many metres per metre walked; a near range or an encounter
+    with a fixed node narrows it (fused with the link's variance plus the node's doubt, never
+    below the node's own), a breadcrumb inherits its dropper's at the drop, links between
+    firefighters leave it. Its variance is added to the published covariance, so integrity
+    does not rest on the graph's odometry model (the INS step covariance, noise_per_m, the
+    heading states) being right; 0: off"""
 
 
 class Graph(Params):
