@@ -125,6 +125,50 @@ def test_a_tag_far_from_the_estimate_relocates_or_is_refused(building):
             assert np.hypot(*(end[:2] - w.p[-1, :2])) < 0.5
 
 
+def test_a_relocation_returns_the_step_scale_to_the_ins(building):
+    """Tag updates of a drifted track (wrong associations) can teach the step scale
+    lambda a wrong value; the read that relocates the track says they were wrong, so
+    lambda returns to its prior, the INS's own scale, and the next leg is walked at it.
+    Here the odometry is exact and lambda has been taught 0.5 when a surveyed tag 5 m
+    from the estimate is read: 22.5 m walked after it end within 2 m of the truth with
+    the rule, about 11 m short with rfid.relocate_scale false."""
+    w = walk([(13.5, 0.0), (13.5, 6.75), (5.5, 6.75), (28.0, 6.75)], stride=1.3)
+    at_tag = int(np.flatnonzero(np.all(np.isclose(w.p[:, :2], (5.5, 6.75)), axis=1))[0])
+    odo = odometry(w)
+    read = TagDetection(t=float(w.t[at_tag]) + 0.01, agent="ff1", device="ff1/rfid",
+                        tag_id="T", reads=4)
+    ends = {}
+    for rule in (True, False):
+        ekf, rec, _ = make_component(PdrEkfEstimator, {
+            "rfid": {"surveyed": {"T": "d0_stair"}, "gate": 3.0, "relocate_scale": rule}},
+            building=building)
+        ekf.start()
+        feed(_Taught(ekf, scale=0.5), odo + [read])
+        assert [d.code for d in rec.on("diagnostics") if d.level == "warning"] == ["tag_relocation"]
+        ends[rule] = float(np.hypot(*(rec.on("pose")[-1].position[:2] - w.p[-1, :2])))
+    assert ends[True] < 2.0
+    assert ends[False] > 8.0
+
+
+class _Taught:
+    """A component whose agents' step scale is set to ``scale`` (with a small variance,
+    uncorrelated: as if learned) right after their filter starts."""
+
+    def __init__(self, ekf: PdrEkfEstimator, scale: float):
+        self.ekf, self.scale, self.done = ekf, scale, set()
+
+    def handle(self, stream, msg) -> None:
+        self.ekf.handle(stream, msg)
+        agent = getattr(msg, "agent", None)
+        if agent and agent not in self.done and agent in self.ekf.state \
+                and self.ekf.state[agent].filt is not None:
+            self.ekf.state[agent].filt.reset_scale(self.scale, 1e-4)
+            self.done.add(agent)
+
+    def finish(self) -> None:
+        self.ekf.finish()
+
+
 def test_bad_odometry_is_counted_and_skipped(building):
     w = walk([(13.5, 0.0), (13.5, 6.75)], stride=1.3)
     odo = odometry(w)

@@ -577,6 +577,8 @@ class PdrEkfEstimator(Estimator):
                f"({math.sqrt(res.nis):.1f} sigma)")
         if res.relocated:
             st.contradicted = True
+            if p.rfid.relocate_scale:
+                st.filt.reset_scale(1.0, p.process.scale_sigma ** 2)
             self.ctx.count("tag_relocations")
             self.ctx.diagnose(t, "warning", "tag_relocation",
                               f"{off}: the track had drifted; re-located at the tag, not "

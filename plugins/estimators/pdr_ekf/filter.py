@@ -156,6 +156,14 @@ class PdrFilter:
         self.P[:, I_Z] = 0.0
         self.P[I_Z, I_Z] = var
 
+    def reset_scale(self, value: float, var: float) -> None:
+        """Return the step-length scale lambda to ``value`` with variance ``var``,
+        uncorrelated with the other states (its prior: what it was taught is dropped)."""
+        self.x[I_LAMBDA] = value
+        self.P[I_LAMBDA, :] = 0.0
+        self.P[:, I_LAMBDA] = 0.0
+        self.P[I_LAMBDA, I_LAMBDA] = var
+
     def _update(self, innov: np.ndarray, H: np.ndarray, Rm: np.ndarray, gate: float | None,
                 gate_axes: slice = slice(None)) -> Update:
         S = H @ self.P @ H.T + Rm

@@ -109,6 +109,9 @@ class Rfid(Params):
     widening the covariance first; 'reject' = refuse it (if tag ids may be duplicated)"""
     relocate_heading_sigma: Angle = param(20 * DEG, unit="rad", gt=0)
     """heading perturbation uncertainty added on a relocation"""
+    relocate_scale: bool = param(True)
+    """a relocation also returns the step-length scale lambda to its prior (1, process.scale_sigma):
+    what the drifted track's tag updates taught it is suspect (false: lambda keeps its estimate)"""
     correct_on_deploy: bool = param(True)
     """the deploying agent's position is corrected to the site its new tag was associated with"""
     associate_gate: float | None = param(None, gt=0)
