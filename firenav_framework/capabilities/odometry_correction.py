@@ -72,7 +72,14 @@ class StepCorrection:
     where the constraint knows the position. ``independent`` False says the evidence
     repeats from step to step (the same wall touched again): the estimator then only
     brings its covariance down *to* ``cov`` along each of its axes, never below it.
-    Ignored on a ``jump``."""
+    Ignored on a ``jump``.
+
+    ``explained`` True says the move from ``OdometryStep.proposed`` to ``position`` is a
+    Kalman update on the evidence in ``cov`` (a filter of UWB ranges), which the fusion
+    of ``cov`` accounts for. False (a rule moved the position: walls that hold, slide or
+    turn the step): the move may be wrong while the odometry is right (a wrong
+    compartment, a wall the plan lacks), and the estimator widens its covariance along
+    it (``dead_reckoning``'s ``drift.correction_doubt``)."""
 
     position: np.ndarray
     update: Rigid2D | None = None
@@ -80,6 +87,7 @@ class StepCorrection:
     event: str = ""
     cov: np.ndarray | None = None
     independent: bool = True
+    explained: bool = False
 
 
 class OdometryCorrection(Constraint, capability=True):

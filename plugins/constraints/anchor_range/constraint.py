@@ -157,7 +157,7 @@ class AnchorRangeConstraint(AnchorRangeInput):
             return None
         return correction(step, step.proposed[:2] + shift, update=Rigid2D.translation(shift),
                           event="anchor_range", cov=_seen(me.cov, info, p.model_sigma ** 2),
-                          independent=False)
+                          independent=False, explained=True)
 
 
 def _seen(cov: np.ndarray, info: np.ndarray, floor: float) -> np.ndarray:

@@ -40,6 +40,14 @@ prediction (the previous position plus the step) than the covariance allows
 diagnostic ``odometry_contradicted`` says where, the pose is not trusted, and the
 covariance is widened by the size of the correction, as for every jump (door or reset
 rule): the estimate does not hold on to a position its own odometry disagrees with.
+
+**Rule corrections.** A correction within that gate that no measurement explains
+(``StepCorrection.explained`` False: walls that hold, slide or turn the step) may be
+wrong while the odometry is right (a wrong compartment, a wall the plan lacks). Its move
+``m`` (2,) [m] from the odometry's prediction, less the moves of the corrections a
+measurement explains, widens the position covariance by ``drift.correction_doubt * m
+m^T`` [m^2]: a track the walls hold back step after step stops being trusted as those
+moves add up. What the walls know of the position is fused afterwards, as on every step.
 """
 from __future__ import annotations
 
@@ -238,6 +246,7 @@ class DeadReckoningEstimator(Estimator):
         heading = wrap_angle(msg.heading + st.yaw_offset + st.transform.angle)
         position, jump, dangle = proposed, False, 0.0
         measured = []                     # (cov (2, 2), independent) of the corrections
+        explained = np.zeros(2)           # the moves the measurements account for [m]
         for c in self.constraints:
             step = OdometryStep(agent=msg.agent, t=msg.t, dt=dt, prev=prev, proposed=position,
                                 heading=heading, transform=st.transform,
@@ -248,6 +257,8 @@ class DeadReckoningEstimator(Estimator):
                 continue
             if fix.event:
                 self.ctx.count(fix.event)
+            if fix.explained:
+                explained = explained + np.asarray(fix.position, float)[:2] - position[:2]
             position = np.asarray(fix.position, float)
             jump = jump or fix.jump
             if fix.cov is not None:
@@ -277,6 +288,12 @@ class DeadReckoningEstimator(Estimator):
             st.cov[:2, :2] += widen
             q[:2, :2] += widen
         else:
+            # a rule's correction that no measurement explains may be wrong: the truth
+            # may be where the odometry put it, along the move the rule made
+            ruled = off - explained
+            widen = self.params.drift.correction_doubt * np.outer(ruled, ruled)
+            st.cov[:2, :2] += widen
+            q[:2, :2] += widen
             for meas, independent in measured:   # what the map / radio know of the position
                 st.cov = fuse_position(st.cov, meas, independent)
                 self.ctx.count("position_updates")

@@ -89,6 +89,11 @@ class Drift(Params):
     """a correction whose squared Mahalanobis distance from the odometry's prediction exceeds this
     (13.8: 99.9 % of a 2-D Gaussian) contradicts the odometry: reported, and the pose covariance
     widened by it"""
+    correction_doubt: float = param(1.0, ge=0)
+    """the share of a rule's correction (a move the walls made that no measurement explains:
+    held, slid or turned; StepCorrection.explained False) added to the covariance along
+    that move, as its squared length: the move may be wrong and the odometry right (a
+    wrong compartment, a wall the plan lacks, a turn misread). 0: off"""
 
 
 class DeadReckoningParams(Params):
