@@ -13,8 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from firenav_framework.capabilities.odometry_correction import StepCorrection
-from firenav_framework.geometry import Rigid2D
-from tests.orca.test_dead_reckoning import POSE, ins_steps, run
+from tests.orca.test_dead_reckoning import POSE, Teleport, ins_steps, run
 
 #: 10 steps of 1 m east (x 5..15 m, y 8.4 m).
 PATH = np.column_stack([5.0 + np.arange(11.0), np.full(11, 8.4)])
@@ -30,22 +29,6 @@ class _Hold:
         self.n += 1
         return None if self.n < self.at else StepCorrection(position=step.prev.copy(),
                                                              event="hold")
-
-
-class _Shift:
-    """A correction of ``shift`` (2,) [m] at step ``at``, stored in the update matrix (as
-    anchor_range's), explained by a measurement or not."""
-
-    def __init__(self, at: int, shift, explained: bool):
-        self.at, self.shift, self.explained, self.n = at, np.asarray(shift, float), explained, 0
-
-    def correct(self, step):
-        self.n += 1
-        if self.n != self.at:
-            return None
-        return StepCorrection(position=step.proposed + np.array([*self.shift, 0.0]),
-                              update=Rigid2D.translation(self.shift), event="shift",
-                              explained=self.explained)
 
 
 def _poses(constraint, doubt: float):
@@ -78,9 +61,9 @@ def test_a_correction_a_measurement_explains_is_not_widened():
     """A 0.5 m shift north at step 4: explained by a measurement (anchor_range's Kalman
     update) it leaves the covariance as without the doubt; made by a rule it adds
     0.25 m^2 along y."""
-    explained, _ = _poses(_Shift(4, (0.0, 0.5), explained=True), 1.0)
-    ruled, _ = _poses(_Shift(4, (0.0, 0.5), explained=False), 1.0)
-    bare, _ = _poses(_Shift(4, (0.0, 0.5), explained=False), 0.0)
+    explained, _ = _poses(Teleport(4, (0.0, 0.5), keep=True, explained=True), 1.0)
+    ruled, _ = _poses(Teleport(4, (0.0, 0.5), keep=True), 1.0)
+    bare, _ = _poses(Teleport(4, (0.0, 0.5), keep=True), 0.0)
     for p, q in zip(explained, bare):
         np.testing.assert_allclose(p.cov, q.cov, atol=1e-12)
     np.testing.assert_allclose(ruled[3].cov[1, 1] - bare[3].cov[1, 1], 0.25, atol=1e-9)

@@ -10,6 +10,7 @@ import pytest
 from firenav_framework import GroundTruth, Odometry
 from firenav_framework.building import Building, Entrance, Floor, bundled_plan, load_building
 from firenav_framework.capabilities.odometry_correction import StepCorrection
+from firenav_framework.geometry import Rigid2D
 from firenav_framework.testing import check_plugin, make_component
 from firenav_plugins.estimators.dead_reckoning import DeadReckoningEstimator
 from tests.contract.known import known
@@ -195,23 +196,28 @@ def test_protection_radius_and_trusted_follow_the_covariance():
     assert poses[0].trusted and not poses[-1].trusted
 
 
-class _Teleport:
-    """A constraint that moves the agent by ``shift`` (2,) [m] at step ``at``."""
+class Teleport:
+    """A constraint that moves the agent by ``shift`` (2,) [m] at step ``at``; ``keep``
+    stores the shift in the update matrix (as anchor_range does, so later steps keep
+    it), ``explained`` says a measurement accounts for it."""
 
-    def __init__(self, at: int, shift, jump: bool = False):
+    def __init__(self, at: int, shift, jump: bool = False, keep: bool = False,
+                 explained: bool = False):
         self.at, self.shift, self.jump, self.n = at, np.asarray(shift, float), jump, 0
+        self.keep, self.explained = keep, explained
 
     def correct(self, step):
         self.n += 1
         if self.n != self.at:
             return None
         return StepCorrection(position=step.proposed + np.array([*self.shift, 0.0]),
-                              jump=self.jump, event="teleport")
+                              update=Rigid2D.translation(self.shift) if self.keep else None,
+                              jump=self.jump, event="teleport", explained=self.explained)
 
 
 def test_a_correction_the_odometry_contradicts_is_reported_widened_and_not_trusted():
     path = np.column_stack([np.arange(11.0), np.zeros(11)])
-    rec, counts = run({**POSE}, ins_steps(path), constraints=[_Teleport(5, (0.0, 4.0))])
+    rec, counts = run({**POSE}, ins_steps(path), constraints=[Teleport(5, (0.0, 4.0))])
     poses = rec.on("pose")
     assert counts["odometry_contradicted"] == 1
     diag = [d for d in rec.on("diagnostics") if d.code == "odometry_contradicted"]
@@ -219,7 +225,7 @@ def test_a_correction_the_odometry_contradicts_is_reported_widened_and_not_trust
     assert poses[3].trusted and not poses[4].trusted
     assert poses[4].cov[1, 1] >= 16.0 and poses[4].protection_radius > 4.0 * 3.0
     # a small correction within the covariance is no contradiction
-    rec, counts = run({**POSE}, ins_steps(path), constraints=[_Teleport(5, (0.0, 0.2))])
+    rec, counts = run({**POSE}, ins_steps(path), constraints=[Teleport(5, (0.0, 0.2))])
     assert "odometry_contradicted" not in counts
     assert all(p.trusted for p in rec.on("pose")[:6])
 

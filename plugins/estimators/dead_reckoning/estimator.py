@@ -258,7 +258,7 @@ class DeadReckoningEstimator(Estimator):
             if fix.event:
                 self.ctx.count(fix.event)
             if fix.explained:
-                explained = explained + np.asarray(fix.position, float)[:2] - position[:2]
+                explained += np.asarray(fix.position, float)[:2] - position[:2]
             position = np.asarray(fix.position, float)
             jump = jump or fix.jump
             if fix.cov is not None:
@@ -285,15 +285,14 @@ class DeadReckoningEstimator(Estimator):
                               agent=msg.agent)
         if jump or contradicted:
             widen = np.eye(2) * float(off @ off)
-            st.cov[:2, :2] += widen
-            q[:2, :2] += widen
         else:
             # a rule's correction that no measurement explains may be wrong: the truth
             # may be where the odometry put it, along the move the rule made
             ruled = off - explained
             widen = self.params.drift.correction_doubt * np.outer(ruled, ruled)
-            st.cov[:2, :2] += widen
-            q[:2, :2] += widen
+        st.cov[:2, :2] += widen
+        q[:2, :2] += widen
+        if not (jump or contradicted):
             for meas, independent in measured:   # what the map / radio know of the position
                 st.cov = fuse_position(st.cov, meas, independent)
                 self.ctx.count("position_updates")

@@ -151,18 +151,19 @@ class PdrFilter:
 
         Z is decoupled from the other states (eq. 2 moves it by counted stairs only, and
         the tag update's height row has its own noise), so a reset is exact."""
-        self.x[I_Z] = z
-        self.P[I_Z, :] = 0.0
-        self.P[:, I_Z] = 0.0
-        self.P[I_Z, I_Z] = var
+        self._reset(I_Z, z, var)
 
     def reset_scale(self, value: float, var: float) -> None:
         """Return the step-length scale lambda to ``value`` with variance ``var``,
         uncorrelated with the other states (its prior: what it was taught is dropped)."""
-        self.x[I_LAMBDA] = value
-        self.P[I_LAMBDA, :] = 0.0
-        self.P[:, I_LAMBDA] = 0.0
-        self.P[I_LAMBDA, I_LAMBDA] = var
+        self._reset(I_LAMBDA, value, var)
+
+    def _reset(self, i: int, value: float, var: float) -> None:
+        """State ``i`` set to ``value`` with variance ``var``, uncorrelated with the rest."""
+        self.x[i] = value
+        self.P[i, :] = 0.0
+        self.P[:, i] = 0.0
+        self.P[i, i] = var
 
     def _update(self, innov: np.ndarray, H: np.ndarray, Rm: np.ndarray, gate: float | None,
                 gate_axes: slice = slice(None)) -> Update:
