@@ -91,8 +91,8 @@ class _Worker(threading.Thread):
     (between updates: its sparse solves and Python steps hold the GIL, which would
     stretch an update it overlaps), and only once the caller has logged and released
     nothing for ``quiet`` [s] (between updates or bursts of them), unless a release was
-    marked urgent (the hand-over is near) or the hand-over is due. ``assemble`` returns an object with ``L``, ``b`` and
-    ``nodes``; ``touch`` and ``clock`` are the caller's touch counters at the snapshot
+    marked urgent (the hand-over is near) or the hand-over is due. ``assemble`` returns
+    an object with ``L``, ``b`` and ``nodes``; ``touch`` and ``clock`` are the caller's touch counters at the snapshot
     (the order in which the next refactorisation's hot nodes are chosen), ``capacity``
     the active-set dimensions to make room for (at least the caller's); ``end`` the
     chain ends at the snapshot (:meth:`IncrementalBlue.recent_nodes`). Errors are

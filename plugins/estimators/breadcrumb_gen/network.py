@@ -197,8 +197,7 @@ class GeneralizedElectricalNetwork:
         self.background_quiet = background_quiet
         self.rebuild_lag_s = rebuild_lag_s
         self._handover_in = 0
-        self._handover_at: float | None = None   # data time of the pending hand-over
-        self._urgent_at: float | None = None
+        self._lag_from: float | None = None      # data time the pending lag counts from
         self._behind: _Behind | None = None      # set while a background rebuild is pending
         #: background rebuilds started, and those handed over early (active set too large)
         self.background_rebuilds = 0
@@ -776,8 +775,7 @@ class GeneralizedElectricalNetwork:
         if self.rebuild_pending:
             self._handover_in -= 1
             self._clock_handover(at)
-            if self._handover_in <= 0 and (self._handover_at is None
-                                           or (at is not None and at >= self._handover_at)):
+            if self._lag_left(at, 0.0):
                 if self.solver.rebuild_ready():
                     self.finish_rebuild()
                     return 0
@@ -788,8 +786,7 @@ class GeneralizedElectricalNetwork:
                     return 0
                 self.late_handovers += 1
             changed = self._relinearise_pending(tol)
-            self.solver.release_log(urgent=self._handover_in <= self.rebuild_lag // 4 and (
-                self._urgent_at is None or (at is not None and at >= self._urgent_at)))
+            self.solver.release_log(urgent=self._lag_left(at, 0.25))
             return changed
         stale = self.stale_edges(tol)
         if stale:
@@ -801,9 +798,16 @@ class GeneralizedElectricalNetwork:
 
     def _clock_handover(self, at: float | None) -> None:
         """Start the pending hand-over's data-time lag at the first call that gives a time."""
-        if at is not None and self._handover_at is None and self.rebuild_lag_s:
-            self._handover_at = at + self.rebuild_lag_s
-            self._urgent_at = at + 0.75 * self.rebuild_lag_s
+        if at is not None and self._lag_from is None and self.rebuild_lag_s:
+            self._lag_from = at
+
+    def _lag_left(self, at: float | None, share: float) -> bool:
+        """Whether at most ``share`` of the pending hand-over's lag is left, in calls and,
+        when it counts data time, at the data time ``at`` [s]."""
+        if self._handover_in > share * self.rebuild_lag:
+            return False
+        return self._lag_from is None or (
+            at is not None and at >= self._lag_from + (1.0 - share) * self.rebuild_lag_s)
 
     def _relinearise_pending(self, tol_sigma: float) -> int:
         """Re-linearise, while a background rebuild is pending, the non-linear edges among
@@ -1021,7 +1025,7 @@ class GeneralizedElectricalNetwork:
             self.solver.start_rebuild(lambda: _assemble(tables, coo=True), hot,
                                       self.background_quiet)
             self._handover_in = self.rebuild_lag
-            self._handover_at = self._urgent_at = None
+            self._lag_from = None
             self._behind = behind
             self.background_rebuilds += 1
             return
