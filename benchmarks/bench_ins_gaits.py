@@ -65,13 +65,15 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 from bench_ins_real_data import (  # noqa: E402
     AS_IT_WAS, MAIN, PREVIOUS, WALK_TUNING, data_dir, eval_trial, fit_count, integrity_errors,
-    integrity_row, run, split, step_poses)
+    integrity_row, run, split)
 from firenav_framework.evaluation.metrics import integrity_figures  # noqa: E402
 from firenav_framework.simulator import simulate  # noqa: E402
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
     load_vicon_trial, vicon_motion)
 from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import eskf  # noqa: E402
+from firenav_plugins.estimators.zupt_ins.clipping import ClipLog  # noqa: E402
+from firenav_plugins.estimators.zupt_ins.steps import StepTracker  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.metrics import (  # noqa: E402
     path_length, shape_error_per_distance, stride_errors)
 
@@ -91,6 +93,9 @@ NO_FAST_GAIT = {"integrity": {"speed_drift_sigma": 0.0, "long_swing_sigma": 0.0}
 #: ``--integrity``'s "odometry's drift rate" row: the poses count the lasting heading drift
 #: rate with the odometry's spread (``odometry.yaw_drift_rate_sigma``), not their own.
 ODOMETRY_DRIFT = {"integrity": {"drift_rate_sigma": None}}
+#: ``--integrity``'s "clipped steps vouched for" row: a step with many saturated samples
+#: is not taken for lost (``integrity.max_clipped`` off), as before it was counted.
+NO_CLIPPED = {"integrity": {"max_clipped": None}}
 #: device axes of the simulator's IMU frames -> FLU
 TO_FLU = {"FRD": np.array([1.0, -1.0, -1.0]), "FLU": np.ones(3)}
 ALIGN_DISTANCE = 5.0   # [m] the steps of the first this many metres fit the start pose
@@ -115,6 +120,7 @@ class Recording:
     gyro: np.ndarray
     foot: np.ndarray          # (N, 3) true foot (IMU point) position at every sample [m]
     strides: int              # true strides of the instrumented foot
+    saturated: np.ndarray     # (N,) bool: accelerometer or gyro at full scale (the flag)
 
 
 @dataclass
@@ -126,12 +132,13 @@ class Score:
     vertical_end: float       # |height error| at the last step [m]
 
 
-def record(gait: str, seed: int) -> Recording:
-    r = simulate({**SCENARIOS, **FIELD}[gait], seed)
+def record(gait: str | Path, seed: int) -> Recording:
+    """One run of a scenario named in SCENARIOS or FIELD, or of a scenario file."""
+    r = simulate({**SCENARIOS, **FIELD}.get(str(gait), gait), seed)
     rec, truth = r.imu["ff1"], r.truth["ff1"]
     axes = TO_FLU[rec.frame]
     return Recording(rec.time, rec.accel * axes, rec.gyro * axes, truth.foot.position,
-                     len(truth.strides.t0))
+                     len(truth.strides.t0), rec.saturated)
 
 
 def score(params: ZuptInsParams, rec: Recording) -> Score:
@@ -310,11 +317,22 @@ def tune() -> None:
 # -- integrity ----------------------------------------------------------------------------
 def sim_poses(params: ZuptInsParams, rec: Recording, own_cov_only: bool = False):
     """(t (K,), position (K, 3), covariance (K, 4, 4)) of the ``pose`` output of one
-    simulated run (``bench_ins_real_data.step_poses``)."""
+    simulated run, as the plugin makes them (``bench_ins_real_data.step_poses``, and each
+    step told the share of its samples the simulator marked saturated, as ``foot_imu``
+    flags them); with ``own_cov_only`` the filter's covariance alone."""
     rate = 1.0 / float(np.median(np.diff(rec.t)))
     eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
     res = BlockResult.concat([eng.process(rec.t, rec.accel, rec.gyro), eng.finish()])
-    return step_poses(params, res, own_cov_only)
+    errors = params.odometry.errors()
+    tracker = StepTracker(params.gait.thresholds(), errors)
+    unc = params.integrity.uncertainty(errors)
+    clips = ClipLog()
+    clips.add(rec.t, rec.saturated)
+    steps = [tracker.step(ev) for ev in res.events]
+    covs = [st.cov_abs if own_cov_only else unc.step(st, clips.share(st.t_start, st.t))
+            for st in steps]
+    return (np.array([st.t for st in steps]), np.array([st.position for st in steps]),
+            np.array(covs))
 
 
 def sim_integrity(params: ZuptInsParams, rec: Recording, own_cov_only: bool = False,
@@ -355,6 +373,7 @@ def report_integrity(seeds: range, gaits: list[str] | None = None,
     params, no_fast = ZuptInsParams(), ZuptInsParams(**NO_FAST_GAIT)
     as_it_was = ZuptInsParams(**AS_IT_WAS)
     odometry_drift = ZuptInsParams(**ODOMETRY_DRIFT)
+    no_clipped = ZuptInsParams(**NO_CLIPPED)
     print(f"Simulated gaits, seeds {seeds.start}-{seeds.stop - 1} ({len(seeds)} runs a row)\n")
     print("| scenario | covariance | runs | poses | NEES x,y (median of the runs') | 95 % "
           "ellipse holds the truth | error within the protection radius (99 % promised) | "
@@ -364,7 +383,9 @@ def report_integrity(seeds: range, gaits: list[str] | None = None,
         recs = [record(gait, s) for s in seeds]
         for p, own, label in ((params, False, "now"), (as_it_was, False, "as it was"),
                               (odometry_drift, False, "odometry's drift rate"),
-                              (no_fast, False, "no fast gait"), (params, True, "filter's own")):
+                              (no_fast, False, "no fast gait"),
+                              (no_clipped, False, "clipped steps vouched for"),
+                              (params, True, "filter's own")):
             integrity_row(f"{gait} | {label}", [sim_integrity(p, r, own) for r in recs])
         if runs:
             per_run(gait, seeds, recs, params)
