@@ -68,6 +68,7 @@ from bench_ins_real_data import (  # noqa: E402
     integrity_row, run, split)
 from firenav_framework.evaluation.metrics import integrity_figures  # noqa: E402
 from firenav_framework.simulator import simulate  # noqa: E402
+from firenav_framework.yaml_locations import ConfigError  # noqa: E402
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
     load_vicon_trial, vicon_motion)
 from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams  # noqa: E402
@@ -367,9 +368,11 @@ def per_run(gait: str, seeds: range, recs: list[Recording], params: ZuptInsParam
 def report_integrity(seeds: range, gaits: list[str] | None = None,
                      runs: bool = False) -> None:
     """``--integrity``: NEES, ellipse and protection-radius containment of the poses on
-    the simulated gaits, beside the covariance as it was (``AS_IT_WAS``), with the
-    odometry's drift rate, without the fast-gait errors and the filter's own covariance
-    alone (the same runs); with ``runs`` each run's figures too (:func:`per_run`)."""
+    the simulated gaits (names or scenario files), beside the covariance as it was
+    (``AS_IT_WAS``), with the odometry's drift rate, without the fast-gait errors, with
+    steps of many saturated samples vouched for (``NO_CLIPPED``) and the filter's own
+    covariance alone (the same runs); with ``runs`` each run's figures too
+    (:func:`per_run`)."""
     params, no_fast = ZuptInsParams(), ZuptInsParams(**NO_FAST_GAIT)
     as_it_was = ZuptInsParams(**AS_IT_WAS)
     odometry_drift = ZuptInsParams(**ODOMETRY_DRIFT)
@@ -454,15 +457,18 @@ def main() -> None:
     ap.add_argument("--tune-height", action="store_true", help="choose the level-floor "
                     "parameters (minutes)")
     ap.add_argument("--gaits", help="--integrity: these scenarios only (comma-separated, "
-                    f"of {', '.join({**SCENARIOS, **FIELD})})")
+                    f"of {', '.join({**SCENARIOS, **FIELD})}, or scenario files)")
     args = ap.parse_args()
     if args.tune:
         tune()
     elif args.tune_height:
         tune_height()
     elif args.integrity:
-        report_integrity(args.seeds, args.gaits.split(",") if args.gaits else None,
-                         runs=args.per_run)
+        try:
+            report_integrity(args.seeds, args.gaits.split(",") if args.gaits else None,
+                             runs=args.per_run)
+        except ConfigError as exc:            # an unknown name, a broken scenario file
+            ap.error(f"--gaits: {exc}")
     else:
         report(args.seeds, field=args.field)
 

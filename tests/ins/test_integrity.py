@@ -431,7 +431,7 @@ agents:
 
 def test_a_run_at_4_m_s_clipping_a_fifth_of_its_samples_is_not_trusted_while_off(tmp_path):
     """Tuning seed 103 of the 3 m/s run sped up to 4 m/s: the +-8 g accelerometer
-    saturates on 13 % of the samples (a fifth of each stride's), each step comes out up
+    (or the gyro) is at full scale on 13 % of the samples (a fifth of each stride's), each step comes out up
     to 45 % short, and the poses were trusted half the time while 3-16 m off (the radius
     under 3 m). Counting a step with more than 15 % of its samples saturated as lost,
     none is trusted while more than 3 m off; the first steps, before the clipping sets
