@@ -8,6 +8,8 @@
                                     # covariance, radius, trusted (seeds 2000-2019)
     .venv/bin/python benchmarks/bench_ins_gaits.py --integrity --seeds 3000-3019
                                     # any range A-B of seeds, both ends included
+    .venv/bin/python benchmarks/bench_ins_gaits.py --integrity --per-run --seeds tuning --gaits run
+                                    # and each run's figures (seed, ellipse, trusted while off)
 
 Three scenarios of ``benchmarks/scenarios`` (the same corridor, the IMU of the real
 recordings, as worn): ``ins_walk`` (54 m), ``ins_crawl`` (kneel, then 34 m on hands and
@@ -63,12 +65,16 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 from bench_ins_real_data import (  # noqa: E402
     AS_IT_WAS, MAIN, PREVIOUS, WALK_TUNING, data_dir, eval_trial, fit_count, integrity_errors,
-    integrity_row, run, split, step_poses)
+    integrity_row, run, split)
+from firenav_framework.evaluation.metrics import integrity_figures  # noqa: E402
 from firenav_framework.simulator import simulate  # noqa: E402
+from firenav_framework.yaml_locations import ConfigError  # noqa: E402
 from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
     load_vicon_trial, vicon_motion)
 from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import eskf  # noqa: E402
+from firenav_plugins.estimators.zupt_ins.clipping import ClipLog  # noqa: E402
+from firenav_plugins.estimators.zupt_ins.steps import StepTracker  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.metrics import (  # noqa: E402
     path_length, shape_error_per_distance, stride_errors)
 
@@ -88,6 +94,9 @@ NO_FAST_GAIT = {"integrity": {"speed_drift_sigma": 0.0, "long_swing_sigma": 0.0}
 #: ``--integrity``'s "odometry's drift rate" row: the poses count the lasting heading drift
 #: rate with the odometry's spread (``odometry.yaw_drift_rate_sigma``), not their own.
 ODOMETRY_DRIFT = {"integrity": {"drift_rate_sigma": None}}
+#: ``--integrity``'s "clipped steps vouched for" row: a step with many saturated samples
+#: is not taken for lost (``integrity.max_clipped`` off), as before it was counted.
+NO_CLIPPED = {"integrity": {"max_clipped": None}}
 #: device axes of the simulator's IMU frames -> FLU
 TO_FLU = {"FRD": np.array([1.0, -1.0, -1.0]), "FLU": np.ones(3)}
 ALIGN_DISTANCE = 5.0   # [m] the steps of the first this many metres fit the start pose
@@ -112,6 +121,7 @@ class Recording:
     gyro: np.ndarray
     foot: np.ndarray          # (N, 3) true foot (IMU point) position at every sample [m]
     strides: int              # true strides of the instrumented foot
+    saturated: np.ndarray     # (N,) bool: accelerometer or gyro at full scale (the flag)
 
 
 @dataclass
@@ -123,12 +133,13 @@ class Score:
     vertical_end: float       # |height error| at the last step [m]
 
 
-def record(gait: str, seed: int) -> Recording:
-    r = simulate({**SCENARIOS, **FIELD}[gait], seed)
+def record(gait: str | Path, seed: int) -> Recording:
+    """One run of a scenario named in SCENARIOS or FIELD, or of a scenario file."""
+    r = simulate({**SCENARIOS, **FIELD}.get(str(gait), gait), seed)
     rec, truth = r.imu["ff1"], r.truth["ff1"]
     axes = TO_FLU[rec.frame]
     return Recording(rec.time, rec.accel * axes, rec.gyro * axes, truth.foot.position,
-                     len(truth.strides.t0))
+                     len(truth.strides.t0), rec.saturated)
 
 
 def score(params: ZuptInsParams, rec: Recording) -> Score:
@@ -305,27 +316,67 @@ def tune() -> None:
 
 
 # -- integrity ----------------------------------------------------------------------------
-def sim_integrity(params: ZuptInsParams, rec: Recording, own_cov_only: bool = False):
-    """The evaluation's error series of the ``pose`` output of one simulated run: the
-    step poses against the true foot at the same instants, the frame fitted on the first
-    5 m (``bench_ins_real_data.fit_count``, ``integrity_errors``)."""
+def sim_poses(params: ZuptInsParams, rec: Recording, own_cov_only: bool = False):
+    """(t (K,), position (K, 3), covariance (K, 4, 4)) of the ``pose`` output of one
+    simulated run, as the plugin makes them (``bench_ins_real_data.step_poses``, and each
+    step told the share of its samples the simulator marked saturated, as ``foot_imu``
+    flags them); with ``own_cov_only`` the filter's covariance alone."""
     rate = 1.0 / float(np.median(np.diff(rec.t)))
     eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
     res = BlockResult.concat([eng.process(rec.t, rec.accel, rec.gyro), eng.finish()])
-    t, pos, cov = step_poses(params, res, own_cov_only)
+    errors = params.odometry.errors()
+    tracker = StepTracker(params.gait.thresholds(), errors)
+    unc = params.integrity.uncertainty(errors)
+    clips = ClipLog()
+    clips.add(rec.t, rec.saturated)
+    steps = [tracker.step(ev) for ev in res.events]
+    covs = [st.cov_abs if own_cov_only else unc.step(st, clips.share(st.t_start, st.t))
+            for st in steps]
+    return (np.array([st.t for st in steps]), np.array([st.position for st in steps]),
+            np.array(covs))
+
+
+def sim_integrity(params: ZuptInsParams, rec: Recording, own_cov_only: bool = False,
+                  poses: tuple | None = None):
+    """The evaluation's error series of the ``pose`` output of one simulated run: the
+    step poses (``poses``, default :func:`sim_poses`) against the true foot at the same
+    instants, the frame fitted on the first 5 m (``bench_ins_real_data.fit_count``,
+    ``integrity_errors``)."""
+    t, pos, cov = poses or sim_poses(params, rec, own_cov_only)
     at = np.minimum(np.searchsorted(rec.t, t), len(rec.t) - 1)
     truth = rec.foot[at, :2]
     return integrity_errors(params, pos, cov, truth, fit_count(truth))
 
 
-def report_integrity(seeds: range, gaits: list[str] | None = None) -> None:
+def per_run(gait: str, seeds: range, recs: list[Recording], params: ZuptInsParams) -> None:
+    """``--per-run``: each run's integrity figures with the defaults, and what its steps
+    look like (fastest step [m/s], longest step [s]: lost stances; largest error [m])."""
+    print(f"\n{gait}, per run (defaults): seed | poses | 95 % ellipse | trusted | trusted "
+          "while > 3 m off | largest error [m] | fastest step [m/s] | longest step [s]")
+    for seed, rec in zip(seeds, recs):
+        t, pos, cov = poses = sim_poses(params, rec)
+        err = sim_integrity(params, rec, poses=poses)
+        f = integrity_figures(err)
+        dt = np.diff(t)
+        speed = np.hypot(*np.diff(pos[:, :2], axis=0).T) / np.maximum(dt, 1e-9)
+        print(f"  {seed} | {len(t)} | {f['ellipse95_containment']:.3f} | "
+              f"{f['trusted_fraction']:.3f} | {100 * f['trusted_off_fraction']:.1f} % | "
+              f"{err.horizontal.max():.2f} | {speed.max(initial=0.0):.2f} | "
+              f"{dt.max(initial=0.0):.2f}")
+
+
+def report_integrity(seeds: range, gaits: list[str] | None = None,
+                     runs: bool = False) -> None:
     """``--integrity``: NEES, ellipse and protection-radius containment of the poses on
-    the simulated gaits, beside the covariance as it was (``AS_IT_WAS``), with the
-    odometry's drift rate, without the fast-gait errors and the filter's own covariance
-    alone (the same runs)."""
+    the simulated gaits (names or scenario files), beside the covariance as it was
+    (``AS_IT_WAS``), with the odometry's drift rate, without the fast-gait errors, with
+    steps of many saturated samples vouched for (``NO_CLIPPED``) and the filter's own
+    covariance alone (the same runs); with ``runs`` each run's figures too
+    (:func:`per_run`)."""
     params, no_fast = ZuptInsParams(), ZuptInsParams(**NO_FAST_GAIT)
     as_it_was = ZuptInsParams(**AS_IT_WAS)
     odometry_drift = ZuptInsParams(**ODOMETRY_DRIFT)
+    no_clipped = ZuptInsParams(**NO_CLIPPED)
     print(f"Simulated gaits, seeds {seeds.start}-{seeds.stop - 1} ({len(seeds)} runs a row)\n")
     print("| scenario | covariance | runs | poses | NEES x,y (median of the runs') | 95 % "
           "ellipse holds the truth | error within the protection radius (99 % promised) | "
@@ -335,8 +386,12 @@ def report_integrity(seeds: range, gaits: list[str] | None = None) -> None:
         recs = [record(gait, s) for s in seeds]
         for p, own, label in ((params, False, "now"), (as_it_was, False, "as it was"),
                               (odometry_drift, False, "odometry's drift rate"),
-                              (no_fast, False, "no fast gait"), (params, True, "filter's own")):
+                              (no_fast, False, "no fast gait"),
+                              (no_clipped, False, "clipped steps vouched for"),
+                              (params, True, "filter's own")):
             integrity_row(f"{gait} | {label}", [sim_integrity(p, r, own) for r in recs])
+        if runs:
+            per_run(gait, seeds, recs, params)
 
 
 #: ``--tune-height`` grid of the level-floor handling (``height`` group).
@@ -397,17 +452,23 @@ def main() -> None:
     ap.add_argument("--tune", action="store_true", help="choose the crawl levels (minutes)")
     ap.add_argument("--integrity", action="store_true", help="NEES, ellipse and protection "
                     "radius containment of the poses")
+    ap.add_argument("--per-run", action="store_true", help="--integrity: each run's "
+                    "figures too (seed, ellipse, trusted while off, fastest and longest step)")
     ap.add_argument("--tune-height", action="store_true", help="choose the level-floor "
                     "parameters (minutes)")
     ap.add_argument("--gaits", help="--integrity: these scenarios only (comma-separated, "
-                    f"of {', '.join({**SCENARIOS, **FIELD})})")
+                    f"of {', '.join({**SCENARIOS, **FIELD})}, or scenario files)")
     args = ap.parse_args()
     if args.tune:
         tune()
     elif args.tune_height:
         tune_height()
     elif args.integrity:
-        report_integrity(args.seeds, args.gaits.split(",") if args.gaits else None)
+        try:
+            report_integrity(args.seeds, args.gaits.split(",") if args.gaits else None,
+                             runs=args.per_run)
+        except ConfigError as exc:            # an unknown name, a broken scenario file
+            ap.error(f"--gaits: {exc}")
     else:
         report(args.seeds, field=args.field)
 

@@ -355,3 +355,100 @@ def test_on_a_simulated_out_and_back_walk_a_trusted_pose_stays_well_inside_its_r
     f, f0 = integrity_figures(e), integrity_figures(e0)
     assert f["ellipse95_containment"] >= f0["ellipse95_containment"]
     assert f["trusted_fraction"] > 0.3
+
+
+def test_the_clip_log_gives_each_step_the_share_of_its_samples_saturated():
+    """Ten samples at 0.1 s, the 3rd, 4th and 9th flagged: the step (0.05, 0.55] holds
+    five samples, two of them saturated; the next one (0.55, 1.0] five, one saturated;
+    a step without samples (a gap) none."""
+    from firenav_plugins.estimators.zupt_ins.clipping import ClipLog
+
+    log = ClipLog()
+    t = 0.1 * np.arange(1, 11)
+    log.add(t[:6], np.isin(np.arange(6), [2, 3]))
+    log.add(t[6:], np.isin(np.arange(6, 10), [8]))
+    assert log.share(0.05, 0.55) == pytest.approx(2 / 5)
+    assert log.share(0.55, 1.0) == pytest.approx(1 / 5)
+    assert log.share(1.0, 1.5) == 0.0
+    log.add(np.array([1.6, 1.7]), None)                     # unflagged blocks
+    assert log.share(1.5, 1.7) == 0.0
+
+
+def test_a_step_with_many_saturated_samples_counts_its_whole_length_as_error():
+    """A saturated sample reads less than the foot did, by an amount unknown: a step
+    with more than max_clipped (15 %) of its samples saturated is lost, a variance of
+    its squared length on either axis (as a step faster than anyone runs); at or below
+    the share it adds nothing."""
+    from firenav_plugins.estimators.zupt_ins.pose_uncertainty import FastGaitErrors
+
+    none = UnmodelledErrors(yaw_rate_sigma=0.0, length_sigma=0.0)
+    fast = FastGaitErrors(max_clipped=0.15)
+    step = _straight(1, 2.0, 0.5)[0]
+    lost = PoseUncertainty(none, 0.0, 0.0, fast).step(step, clipped=0.2)
+    assert lost[0, 0] == pytest.approx(4.0) and lost[1, 1] == pytest.approx(4.0)
+    vouched = PoseUncertainty(none, 0.0, 0.0, fast).step(step, clipped=0.15)
+    np.testing.assert_allclose(vouched, 0.0, atol=1e-15)
+    assert ZuptInsParams().integrity.max_clipped == 0.15
+
+
+def test_the_plugin_counts_the_samples_the_sensor_flagged_saturated():
+    """The same walk, every sample flagged saturated (ImuBlock.flags): the odometry is
+    the same to the byte, and each pose's horizontal variance is larger on either axis
+    by the squared horizontal lengths of the steps so far (all of them lost; without
+    holding the peak the variances add exactly)."""
+    plain = blocks()
+    flagged = [(port, dataclasses.replace(b, flags=np.ones(len(b.time), np.uint8)))
+               for port, b in plain]
+    cfg = {"integrity": {"hold_peak": False}}
+    a = run_component(ZuptInsEstimator, cfg, plain)
+    b = run_component(ZuptInsEstimator, cfg, flagged)
+    odo = a.on("odometry")
+    assert odo and [_fields(m) for m in odo] == [_fields(m) for m in b.on("odometry")]
+    lost = np.cumsum([float(m.delta[:2] @ m.delta[:2]) for m in odo])
+    assert lost[-1] > 1.0                                   # the walk's four steps
+    for extra, p, q in zip(lost, a.on("pose"), b.on("pose")):
+        np.testing.assert_allclose(np.diag(q.cov - p.cov), [extra, extra, 0.0, 0.0],
+                                   atol=1e-9)
+
+
+RUN_4_M_S = """
+name: run_4_m_s
+description: the gait set's run at 4 m/s (ins_run.yaml, the run gait faster)
+building: corridor
+gaits:
+  run: {speed: 4.0, stride: 2.5}
+agents:
+  - id: ff1
+    start: {position: [2.0, 8.4], floor: 0, heading_deg: 0, time_s: 5}
+    sensors:
+      imu: {grade: microstrain_3dm_gx5_25, rate_hz: 200, axes: FRD,
+            gyro: {turn_on_bias_dps: 0.2}, accel: {noise_density_ug_rthz: 80}}
+    plan:
+      - walk: {to: [30.0, 8.4], gait: run}
+      - walk: {to: [4.0, 8.4], gait: run}
+"""
+
+
+def test_a_run_at_4_m_s_clipping_a_fifth_of_its_samples_is_not_trusted_while_off(tmp_path):
+    """Tuning seed 103 of the 3 m/s run sped up to 4 m/s: the +-8 g accelerometer
+    (or the gyro) is at full scale on 13 % of the samples (a fifth of each stride's), each step comes out up
+    to 45 % short, and the poses were trusted half the time while 3-16 m off (the radius
+    under 3 m). Counting a step with more than 15 % of its samples saturated as lost,
+    none is trusted while more than 3 m off; the first steps, before the clipping sets
+    in, still are."""
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    from bench_ins_gaits import record, sim_integrity
+
+    from firenav_framework.evaluation.metrics import integrity_figures
+
+    path = tmp_path / "run_4_m_s.yaml"
+    path.write_text(RUN_4_M_S)
+    rec = record(path, 103)
+    assert rec.saturated.mean() > 0.1
+    before = integrity_figures(sim_integrity(ZuptInsParams(integrity={"max_clipped": None}),
+                                             rec))
+    now = integrity_figures(sim_integrity(ZuptInsParams(), rec))
+    assert before["trusted_off_fraction"] > 0.3             # the failure
+    assert now["trusted_off_fraction"] <= 0.02
+    assert now["protection_containment"] > before["protection_containment"]
+    assert now["trusted_fraction"] > 0.1                    # the rest and the first steps

@@ -30,9 +30,10 @@ import numpy as np
 from firenav_framework import Estimator, ImuBlock, Odometry, PerAgent, PoseEstimate
 from firenav_framework.geometry import planar_rotation, wrap_angle
 from firenav_framework.integrity import gaussian_protection_radius, trusted
-from firenav_framework.messages import Message
+from firenav_framework.messages import IMU_FLAG_BITS, Message
 
 from . import eskf
+from .clipping import ClipLog
 from .engine import BlockResult, InsEngine
 from .params import ZuptInsParams
 from .pose_uncertainty import PoseUncertainty
@@ -84,6 +85,7 @@ class _Device:
     # may still need; the oldest entry is at or before the next state row
     unmodelled: list[tuple[float, np.ndarray]] = field(default_factory=list)
     bias_judged: bool = False
+    clips: ClipLog = field(default_factory=ClipLog)   # saturated samples, until their step
 
     @property
     def n_pending(self) -> int:
@@ -131,6 +133,8 @@ class ZuptInsEstimator(Estimator):
         acc = np.asarray(msg.accel, float)
         gyro = np.asarray(msg.gyro, float)
         dev.last_t = float(t[-1])
+        dev.clips.add(t, None if msg.flags is None
+                      else (np.asarray(msg.flags) & IMU_FLAG_BITS["saturated"]) > 0)
         if dev.engine is None:
             dev.pending.append((t, acc, gyro))
             if self.params.imu.sample_rate is None and dev.n_pending <= RATE_SAMPLES:
@@ -304,8 +308,8 @@ class ZuptInsEstimator(Estimator):
             heading=step.heading, motion=step.motion,
             yaw_drift_rate_sigma=dev.steps.unmodelled.yaw_drift_rate_sigma))
         placed = self.placement(agent)
-        pos, heading, cov = placed.apply(step.position, step.heading,
-                                         dev.uncertainty.step(step))
+        pos, heading, cov = placed.apply(step.position, step.heading, dev.uncertainty.step(
+            step, dev.clips.share(step.t_start, step.t)))
         if self.params.outputs.state_rate > 0:
             dev.unmodelled.append((step.t, dev.uncertainty.last))
         self.ctx.publish("pose", self._pose(step.t, agent, dev.device, pos, heading, cov,

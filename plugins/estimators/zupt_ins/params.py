@@ -257,6 +257,10 @@ class PoseIntegrity(IntegrityParams):
     max_speed: float | None = param(5.0, unit="m/s", gt=0)
     """a step faster than this is lost (stances missed, integrated unaided): horizontal error of
     its whole length (each axis); null: off"""
+    max_clipped: float | None = param(0.15, unit="1", ge=0, le=1)
+    """a step with a larger share of its samples saturated (accelerometer or gyro at full scale,
+    ImuBlock flags) is lost (the sensor read less than the foot did): horizontal error of its
+    whole length (each axis); null: off"""
     hold_peak: bool = param(True)
     """without a fix the horizontal uncertainty does not shrink: the covariance is raised by a
     circle to the largest horizontal variance so far (the drift nodes' errors cancel on the way
@@ -267,7 +271,7 @@ class PoseIntegrity(IntegrityParams):
         return PoseUncertainty(errors, self.scale_sigma, self.position_sigma, FastGaitErrors(
             speed_from=self.speed_from, speed_drift_sigma=self.speed_drift_sigma,
             long_swing=self.long_swing, long_swing_sigma=self.long_swing_sigma,
-            max_speed=self.max_speed),
+            max_speed=self.max_speed, max_clipped=self.max_clipped),
             drift_rate_sigma=self.drift_rate_sigma, hold_peak=self.hold_peak)
 
 

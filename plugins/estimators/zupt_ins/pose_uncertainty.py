@@ -30,9 +30,11 @@ carries those errors in the INS frame, propagated step by step:
   linear model holds; the two parts are taken as independent;
 * a step whose swing ran longer than ``long_swing`` (zero-velocity updates missed:
   seconds of strapdown integration unaided) has a horizontal error growing with the
-  excess, in any direction (:class:`FastGaitErrors`); a step faster than ``max_speed``
-  (no one on foot covers ground that fast: the INS has lost its stances and integrates
-  unaided) has a horizontal error of its whole length on either axis;
+  excess, in any direction (:class:`FastGaitErrors`); a step the INS cannot vouch for
+  has a horizontal error of its whole length on either axis: one faster than
+  ``max_speed`` (no one on foot covers ground that fast: the INS has lost its stances
+  and integrates unaided), or one with more than ``max_clipped`` of its samples
+  saturated (``clipping``: the sensor read less than the foot did, by an amount unknown);
 * without a fix the horizontal uncertainty does not shrink (``hold_peak``): the
   drift-rate nodes make the position error a fixed function of one rate, so on the way
   back along an out-and-back path their offsets cancel and the covariance shrinks to
@@ -80,14 +82,16 @@ class FastGaitErrors:
     long_swing: float = 2.0          # [s] steps lasting longer missed zero-velocity updates
     long_swing_sigma: float = 0.0    # [1/s] relative horizontal error per second beyond it
     max_speed: float | None = None   # [m/s] faster steps are lost: error of their length
+    max_clipped: float | None = None  # [-] steps with a larger share saturated are lost
 
-    def lost_variance(self, step: Step, duration: float) -> float:
-        """Variance [m^2] per horizontal axis of a step faster than ``max_speed``: its
-        squared length (0 for a plausible step)."""
+    def lost_variance(self, step: Step, duration: float, clipped: float = 0.0) -> float:
+        """Variance [m^2] per horizontal axis of a lost step, faster than ``max_speed`` or
+        with a share ``clipped`` of its samples saturated above ``max_clipped``: its
+        squared length (0 for a step the INS can vouch for)."""
         length2 = float(step.delta[:2] @ step.delta[:2])
-        if self.max_speed is None or length2 <= (self.max_speed * duration) ** 2:
-            return 0.0
-        return length2
+        too_fast = self.max_speed is not None and length2 > (self.max_speed * duration) ** 2
+        too_clipped = self.max_clipped is not None and clipped > self.max_clipped
+        return length2 if too_fast or too_clipped else 0.0
 
     def excess_speed(self, step: Step, duration: float) -> float:
         """How far [m/s] the step's horizontal speed lies above ``speed_from``."""
@@ -132,8 +136,9 @@ class PoseUncertainty:
         self.hold_peak = hold_peak
         self.peak = 0.0                                  # [m^2] largest horizontal variance
 
-    def step(self, step: Step) -> np.ndarray:
-        """Propagate over one step; the pose covariance (4, 4) at its end, INS frame."""
+    def step(self, step: Step, clipped: float = 0.0) -> np.ndarray:
+        """Propagate over one step, ``clipped`` [0, 1] the share of its samples saturated
+        (``clipping.ClipLog``); the pose covariance (4, 4) at its end, INS frame."""
         duration = max(step.t - step.t_start, 0.0)
         dx, dy = float(step.delta[0]), float(step.delta[1])
         f = np.eye(5)
@@ -142,7 +147,7 @@ class PoseUncertainty:
         self.cov = f @ self.cov @ f.T
         self.cov[:4, :4] += self.errors.inflate(np.zeros((4, 4)), step.delta, duration)
         swing = (self.fast.long_swing_variance(step, duration)
-                 + self.fast.lost_variance(step, duration))
+                 + self.fast.lost_variance(step, duration, clipped))
         self.cov[0, 0] += swing
         self.cov[1, 1] += swing
         c, s = np.cos(self.heading) - 1.0, np.sin(self.heading)
