@@ -221,8 +221,7 @@ def plugin_settings() -> dict:
     wait the benchmark sets itself."""
     from firenav_plugins.estimators.breadcrumb_gen.params import Graph
     options = Graph().network_options()
-    return {k: v for k, v in options.items()
-            if k not in ("rebuild_lag", "handover_wait", "rebuild_lag_s")}
+    return {k: v for k, v in options.items() if k not in ("rebuild_lag", "handover_wait")}
 
 
 def new_network(rebuild_lag: int, handover_wait: float | None = None,
@@ -260,7 +259,6 @@ def _timed_updates(gen: GeneralizedElectricalNetwork, updates: list[Update], lat
                    pace: float) -> np.ndarray:
     """Feed ``updates`` to ``gen``, wall seconds of each into ``lat`` (returned), CPU
     seconds into ``cpu`` when given (see :func:`run_ours`)."""
-    timed = "at" in inspect.signature(gen.relinearize).parameters
     start = time.perf_counter()
     for k, up in enumerate(updates):
         if pace > 0:
@@ -273,7 +271,7 @@ def _timed_updates(gen: GeneralizedElectricalNetwork, updates: list[Update], lat
                 others, r, var = zip(*up.ranges)
                 gen.add_ranges([up.key] * len(r), others, r, var)
             add_encounters_and_drop(gen, up)
-        gen.relinearize(at=up.t) if timed else gen.relinearize()
+        gen.relinearize()
         changed = [*new, *changed_nodes(up)[1:]]
         if up.drop:
             changed.append(up.drop)
@@ -514,13 +512,8 @@ def main() -> None:
     ap.add_argument("--plugin-settings", action="store_true", help="the GEN with the "
                     "breadcrumb_gen plugin's default options (active-set bound, hot nodes, "
                     "background size) instead of the class's own, in every checkout")
-    ap.add_argument("--rebuild-lag-s", type=float, default=0.0, metavar="S", help="also "
-                    "hand a refactorisation over no sooner than this many seconds of data "
-                    "time after it starts (where the checkout's GEN has the option)")
     args = ap.parse_args()
     settings = plugin_settings() if args.plugin_settings else None
-    if args.rebuild_lag_s:
-        settings = {**(settings or {}), "rebuild_lag_s": args.rebuild_lag_s}
     steps = 20 if args.quick else 95
     if args.compare:
         compare(args.compare, args.seed, steps, args.pace, args.rebuild_lag,

@@ -7,7 +7,6 @@ import threading
 import time
 
 import numpy as np
-import pytest
 
 from firenav_plugins.estimators.breadcrumb_gen import incremental
 from firenav_plugins.estimators.breadcrumb_gen.network import (
@@ -47,11 +46,9 @@ def test_sliding_window_with_heading_states_through_background_rebuilds():
         np.testing.assert_allclose(gen.covariance(key), sigma[i:i + 3, i:i + 3], atol=TOL)
 
 
-def ranged_walk(gen: GeneralizedElectricalNetwork, steps: int, seed: int = 5,
-                dt: float | None = None):
+def ranged_walk(gen: GeneralizedElectricalNetwork, steps: int, seed: int = 5):
     """A walker in a 12 m square with ranges to four breadcrumbs (non-linear edges that get
-    re-linearised); yields after each update, with the re-linearisation check done (given
-    the update's data time ``k dt`` when ``dt`` is)."""
+    re-linearised); yields after each update, with the re-linearisation check done."""
     rng = np.random.default_rng(seed)
     gen.add_anchor("base", np.zeros(3))
     crumbs = {f"bc{k}": np.array([x, y, 0.0]) for k, (x, y) in
@@ -72,7 +69,7 @@ def ranged_walk(gen: GeneralizedElectricalNetwork, steps: int, seed: int = 5,
                 r = float(np.linalg.norm(truth - p))
                 if r < 9:
                     gen.add_range(key, name, r + rng.normal() * 0.2, 0.04)
-        gen.relinearize(0.01, at=None if dt is None else k * dt)
+        gen.relinearize(0.01)
         prev = key
         yield gen
 
@@ -264,59 +261,6 @@ def test_the_worker_goes_on_only_between_updates():
     assert len(worker._ops) > done and worker._applied == done
     gen.relinearize()
     assert gen.solver.rebuild_ready(60.0) and worker._applied == len(worker._ops)
-
-
-def test_the_factorisation_waits_for_a_quiet_caller_unless_the_hand_over_is_near():
-    """The worker's assembly and factorisation hold the GIL part of the time, so they wait
-    until the caller has been idle for ``background_quiet``: with a quiet of 30 s it has
-    not started after several updates; once the hand-over is a quarter of the lag away
-    (here 8 of 32 updates) it starts, and the hand-over gives the same estimates as a
-    worker that started at once."""
-    def run(quiet: float) -> tuple[GeneralizedElectricalNetwork, list]:
-        gen = GeneralizedElectricalNetwork(3, max_active_dims=60, hot_nodes=5, rebuild_lag=32,
-                                           background_dims=0, background_quiet=quiet)
-        walk = ranged_walk(gen, 90)
-        while not gen.rebuild_pending:
-            next(walk)
-        worker = gen.solver._worker
-        started = []
-        for _ in range(20):                     # 20 of the lag's 32 updates: not urgent yet
-            next(walk)
-            started.append(worker._solver is not None or not worker.is_alive())
-        for _ in range(4):                      # 8 to go: urgent, it starts (well before 30 s)
-            next(walk)
-        started.append(gen.solver.rebuild_ready(20.0))
-        for _ in walk:
-            pass
-        gen.finish_rebuild()
-        return gen, started
-
-    patient, started = run(30.0)
-    assert not any(started[:-1]) and started[-1]
-    assert patient.background_rebuilds >= 2
-    eager, _ = run(0.0)
-    nodes = [f"x{k}" for k in range(90)]
-    np.testing.assert_array_equal(patient.estimates_of(nodes), eager.estimates_of(nodes))
-
-
-def test_a_data_time_lag_hands_over_at_the_first_update_that_late():
-    """With ``rebuild_lag_s`` 2 s and an update every 0.5 s of data time, every pending
-    refactorisation is handed over 4 updates after it started, although ``rebuild_lag``
-    alone (1) would hand it over at the next update."""
-    gen = GeneralizedElectricalNetwork(3, max_active_dims=60, hot_nodes=5, rebuild_lag=1,
-                                       rebuild_lag_s=2.0, background_dims=0)
-    pending = [g.rebuild_pending for g in ranged_walk(gen, 90, dt=0.5)]
-    stretches = [len(run) for run in "".join("p" if p else "." for p in pending).split(".")
-                 if run]
-    if pending[-1]:
-        stretches.pop()                         # cut by the walk's end
-    assert len(stretches) >= 3 and set(stretches) == {4}
-
-
-@pytest.mark.parametrize("kw", [{"background_quiet": -0.1}, {"rebuild_lag_s": -1.0}])
-def test_a_negative_quiet_or_time_lag_is_refused(kw):
-    with pytest.raises(ValueError, match="must be >= 0 s"):
-        GeneralizedElectricalNetwork(3, rebuild_lag=5, **kw)
 
 
 def test_the_dense_set_is_never_reallocated_on_the_callers_thread():

@@ -223,7 +223,7 @@ class BreadcrumbGenEstimator(Estimator):
             st.states.append(_State(key, msg.t, step / dt, heading, st.count - 1, walked))
             st.heading_var += float(np.asarray(msg.cov)[3, 3])
             self._release(msg.agent, st, final=False)
-        self.gen.relinearize(at=msg.t)
+        self.gen.relinearize()
         self._forget_old(st)
         self._publish_pose(msg, st)
         self._publish_touched(msg.t)
@@ -647,7 +647,7 @@ class BreadcrumbGenEstimator(Estimator):
         fake = Range(t=msg.t, a=na, b=nb, range_m=r, sigma_m=sigma, method="rssi")
         with self.gen.batch():
             self._range(fake, "", (na, ha, 0.0), (nb, hb, 0.0))
-        self.gen.relinearize(at=msg.t)
+        self.gen.relinearize()
 
     # -- breadcrumbs -----------------------------------------------------------------------------
     def _apply_drop(self, msg: BreadcrumbDrop, st: _Agent) -> None:

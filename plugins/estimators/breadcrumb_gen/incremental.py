@@ -42,7 +42,6 @@ paper: x, y, z).
 from __future__ import annotations
 
 import threading
-import time
 import weakref
 from collections.abc import Callable, Sequence
 
@@ -89,10 +88,8 @@ class _Worker(threading.Thread):
     (:meth:`push`), in their order, so that at the hand-over the caller only swaps that
     solver in. It starts, and goes on, only with what the caller has :meth:`release` d
     (between updates: its sparse solves and Python steps hold the GIL, which would
-    stretch an update it overlaps), and only once the caller has logged and released
-    nothing for ``quiet`` [s] (between updates or bursts of them), unless a release was
-    marked urgent (the hand-over is near) or the hand-over is due. ``assemble`` returns
-    an object with ``L``, ``b`` and ``nodes``; ``touch`` and ``clock`` are the caller's touch counters at the snapshot
+    stretch an update it overlaps). ``assemble`` returns an object with ``L``, ``b`` and
+    ``nodes``; ``touch`` and ``clock`` are the caller's touch counters at the snapshot
     (the order in which the next refactorisation's hot nodes are chosen), ``capacity``
     the active-set dimensions to make room for (at least the caller's); ``end`` the
     chain ends at the snapshot (:meth:`IncrementalBlue.recent_nodes`). Errors are
@@ -100,11 +97,8 @@ class _Worker(threading.Thread):
 
     def __init__(self, assemble: Callable[[], object], hot: list[int], dim: int,
                  max_active_dims: int, touch: np.ndarray, end: np.ndarray, clock: int,
-                 capacity: int, quiet: float = 0.0) -> None:
+                 capacity: int) -> None:
         super().__init__(name="gen-refactorisation", daemon=True)
-        self._quiet = quiet
-        self._active = time.monotonic()  # when the caller last logged or released
-        self._urgent = False
         self._assemble, self._hot, self._dim = assemble, hot, dim
         self._max_active_dims, self._touch, self._clock = max_active_dims, touch, clock
         self._end = end
@@ -122,7 +116,6 @@ class _Worker(threading.Thread):
         try:
             with self._cond:
                 self._cond.wait_for(lambda: self._released >= 0 or self._dropped)
-                self._wait_quiet()
             if self._dropped:
                 return
             system = self._assemble()
@@ -141,7 +134,6 @@ class _Worker(threading.Thread):
                 with self._cond:
                     self._cond.wait_for(lambda: self._closed or self._dropped
                                         or self._applied < self._released)
-                    self._wait_quiet()
                     end = len(self._ops) if self._closed else self._released
                     todo = [] if self._dropped else self._ops[self._applied:end]
                 if not todo:
@@ -156,28 +148,15 @@ class _Worker(threading.Thread):
                 self._error = exc
                 self._cond.notify_all()
 
-    def _wait_quiet(self) -> None:
-        """Wait (holding the condition's lock) until the caller has been quiet for
-        ``quiet``, the release was urgent, or the hand-over (or a drop) came."""
-        while not (self._dropped or self._closed or self._urgent):
-            idle = time.monotonic() - self._active
-            if idle >= self._quiet:
-                return
-            self._cond.wait(self._quiet - idle)
-
     def push(self, op: str, args: tuple) -> None:
         """Log one operation (a solver method name and its arguments) for the catch-up."""
         with self._cond:
             self._ops.append((op, args))
-            self._active = time.monotonic()
 
-    def release(self, urgent: bool = False) -> None:
-        """Let the worker go on with everything logged so far (the factorisation first),
-        at once if ``urgent`` (from then on), else once the caller is quiet."""
+    def release(self) -> None:
+        """Let the worker go on with everything logged so far (the factorisation first)."""
         with self._cond:
             self._released = len(self._ops)
-            self._active = time.monotonic()
-            self._urgent = self._urgent or urgent
             self._cond.notify_all()
 
     def drop(self) -> None:
@@ -539,29 +518,26 @@ class IncrementalBlue:
         those of the previous factorisation (exact for its linearisation)."""
         return self._worker is not None
 
-    def start_rebuild(self, assemble: Callable[[], object], hot: Sequence[int] = (),
-                      quiet: float = 0.0) -> None:
+    def start_rebuild(self, assemble: Callable[[], object], hot: Sequence[int] = ()) -> None:
         """:meth:`rebuild` of the system ``assemble()`` returns (an object with ``L``, ``b``
         and ``nodes``, built from a snapshot), assembled and factorised on a worker thread
-        from the first :meth:`release_log` on once this thread has been quiet for
-        ``quiet`` [s] (or a release is urgent), which then applies every operation logged
+        from the first :meth:`release_log` on, which then applies every operation logged
         since (in order, as released); the current factor keeps serving until
         :meth:`finish_rebuild`."""
         if self._worker is not None:
             raise RuntimeError("a background rebuild is already pending")
         self._worker = _Worker(assemble, list(hot), self.d, self.max_active_dims,
                                self._touch.copy(), self._end.copy(), self._clock,
-                               max(self._cap, self.pending_capacity), quiet)
+                               max(self._cap, self.pending_capacity))
         self._drop_worker = weakref.finalize(self, self._worker.drop)
         self._worker.start()
 
-    def release_log(self, urgent: bool = False) -> None:
+    def release_log(self) -> None:
         """Let the worker of a pending background rebuild start, or apply the operations
         logged so far; call it when this thread has nothing to do for a while (after an
-        update), since the worker holds the GIL part of the time. ``urgent``: the
-        factorisation starts now even if this thread is not quiet (the hand-over is near)."""
+        update), since the worker holds the GIL part of the time."""
         if self._worker is not None:
-            self._worker.release(urgent)
+            self._worker.release()
 
     def rebuild_ready(self, timeout: float | None = 0.0) -> bool:
         """Whether the pending background rebuild is factorised and has applied every

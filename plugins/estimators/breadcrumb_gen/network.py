@@ -159,32 +159,18 @@ class GeneralizedElectricalNetwork:
     the machine's timing. With a lag a refactorisation is due once the active set passes
     ``background_start`` of its bound (a fraction): it grows on while pending, and the
     updates' dense cost grows with its square.
-    ``rebuild_lag_s`` > 0 also delays the hand-over until ``rebuild_lag_s`` seconds of data
-    time after the first :meth:`relinearize` call that gives its ``at`` time (and at least
-    ``rebuild_lag`` calls): with updates that come in bursts (a team stepping together) the
-    hand-over then falls at a burst's start, after the worker had the idle time between
-    bursts to catch up. Time is data time, so the hand-over point is still the calls'.
-    The worker works (assembles, factorises, applies the logged operations) only once the
-    caller has been idle for ``background_quiet`` [s] (between updates or bursts: its
-    GIL-holding steps would stretch the updates they overlap), or at once when the
-    hand-over is near (a quarter of the lag in calls, and of ``rebuild_lag_s`` in data
-    time, to go); that moves the work in time, never the estimates.
     """
 
     def __init__(self, dim: int = 3, *, eps: float = 1e-6, relinearize_sigma: float = 0.1,
                  max_active_dims: int = 900, hot_nodes: int = 150,
                  incremental: bool = True, rebuild_lag: int = 0,
                  background_dims: int = 300, handover_wait: float | None = None,
-                 background_start: float = 0.65, background_quiet: float = 0.01,
-                 rebuild_lag_s: float = 0.0) -> None:
+                 background_start: float = 0.65) -> None:
         if rebuild_lag < 0 or background_dims < 0:
             raise ValueError(f"rebuild_lag ({rebuild_lag}) and background_dims "
                              f"({background_dims}) must be >= 0")
         if not 0 < background_start <= 1:
             raise ValueError(f"background_start must be in (0, 1], got {background_start}")
-        if not background_quiet >= 0 or not rebuild_lag_s >= 0:
-            raise ValueError(f"background_quiet ({background_quiet}) and rebuild_lag_s "
-                             f"({rebuild_lag_s}) must be >= 0 s")
         if handover_wait is not None and not handover_wait >= 0:
             raise ValueError(f"handover_wait must be >= 0 s or None, got {handover_wait}")
         self.handover_wait = handover_wait
@@ -194,10 +180,7 @@ class GeneralizedElectricalNetwork:
         self.hot_nodes = hot_nodes
         self.rebuild_lag = rebuild_lag
         self.background_dims = background_dims
-        self.background_quiet = background_quiet
-        self.rebuild_lag_s = rebuild_lag_s
         self._handover_in = 0
-        self._lag_from: float | None = None      # data time the pending lag counts from
         self._behind: _Behind | None = None      # set while a background rebuild is pending
         #: background rebuilds started, and those handed over early (active set too large)
         self.background_rebuilds = 0
@@ -750,11 +733,10 @@ class GeneralizedElectricalNetwork:
             stale += int(self._rot_stale(cand, self._rot.lin[cand], psi, tol_sigma).sum())
         return stale
 
-    def relinearize(self, tol_sigma: float | None = None, at: float | None = None) -> int:
+    def relinearize(self, tol_sigma: float | None = None) -> int:
         """Re-linearise (eqs. 18-21) the non-linear edges whose linearisation error exceeds
         ``tol_sigma`` of their standard deviation (see :meth:`stale_edges`); returns how
-        many were stale among the active nodes. ``at`` [s]: the update's data time (for
-        ``rebuild_lag_s``).
+        many were stale among the active nodes.
 
         The new linearisation is applied in the information form, by re-assembling
         ``L`` and ``b`` (eqs. 20, 21) and refactorising: removing an old linearisation
@@ -762,8 +744,7 @@ class GeneralizedElectricalNetwork:
         direction changed a lot, adding information is not.
 
         While a background refactorisation is pending the call counts towards its
-        hand-over (which it does in the ``rebuild_lag``-th call, or the first after
-        ``rebuild_lag_s`` of data time, returning 0); in the
+        hand-over (which it does in the ``rebuild_lag``-th call, returning 0); in the
         others the stale edges are re-linearised in the system of the new factor instead
         (see :meth:`_relinearise_pending`), so the Gauss-Newton steps go on there. The
         call ends an update: the worker is let go on then with what the update logged
@@ -774,8 +755,7 @@ class GeneralizedElectricalNetwork:
         tol = self.relinearize_sigma if tol_sigma is None else tol_sigma
         if self.rebuild_pending:
             self._handover_in -= 1
-            self._clock_handover(at)
-            if self._lag_left(at, 0.0):
+            if self._handover_in <= 0:
                 if self.solver.rebuild_ready():
                     self.finish_rebuild()
                     return 0
@@ -786,28 +766,14 @@ class GeneralizedElectricalNetwork:
                     return 0
                 self.late_handovers += 1
             changed = self._relinearise_pending(tol)
-            self.solver.release_log(urgent=self._lag_left(at, 0.25))
+            self.solver.release_log()
             return changed
         stale = self.stale_edges(tol)
         if stale:
             self.rebuild(tol)
             if self.rebuild_pending:
-                self._clock_handover(at)
                 self.solver.release_log()
         return stale
-
-    def _clock_handover(self, at: float | None) -> None:
-        """Start the pending hand-over's data-time lag at the first call that gives a time."""
-        if at is not None and self._lag_from is None and self.rebuild_lag_s:
-            self._lag_from = at
-
-    def _lag_left(self, at: float | None, share: float) -> bool:
-        """Whether at most ``share`` of the pending hand-over's lag is left, in calls and,
-        when it counts data time, at the data time ``at`` [s]."""
-        if self._handover_in > share * self.rebuild_lag:
-            return False
-        return self._lag_from is None or (
-            at is not None and at >= self._lag_from + (1.0 - share) * self.rebuild_lag_s)
 
     def _relinearise_pending(self, tol_sigma: float) -> int:
         """Re-linearise, while a background rebuild is pending, the non-linear edges among
@@ -1022,10 +988,8 @@ class GeneralizedElectricalNetwork:
         tables = self._tables()
         if (self.rebuild_lag and isinstance(self.solver, IncrementalBlue)
                 and len(tables.nodes) * self.d >= self.background_dims):
-            self.solver.start_rebuild(lambda: _assemble(tables, coo=True), hot,
-                                      self.background_quiet)
+            self.solver.start_rebuild(lambda: _assemble(tables, coo=True), hot)
             self._handover_in = self.rebuild_lag
-            self._lag_from = None
             self._behind = behind
             self.background_rebuilds += 1
             return

@@ -156,10 +156,6 @@ class Graph(Params):
     so replays give identical tracks; a number bounds the update's latency, and a late factor is
     handed over at a later update, counted as graph_late_handovers, which makes tracks depend on
     the machine's timing)"""
-    rebuild_lag_s: float = param(0.0, unit="s", ge=0, le=600)
-    """with rebuild_lag: hand a refactorisation over no sooner than this much data time after it
-    starts (a team's updates come in bursts: the hand-over then falls at a burst's start, after
-    the worker caught up between bursts)"""
     background_dims: int = param(3000, ge=0, le=1_000_000)
     """systems of at least this many dimensions are refactorised on the worker thread; smaller ones
     at once"""
@@ -172,7 +168,7 @@ class Graph(Params):
                 "max_active_dims": self.max_active_dims,
                 "hot_nodes": max(8, self.max_active_dims // 12),
                 "rebuild_lag": self.rebuild_lag, "background_dims": self.background_dims,
-                "handover_wait": self.handover_wait, "rebuild_lag_s": self.rebuild_lag_s}
+                "handover_wait": self.handover_wait}
 
 
 class HeadingStates(Params):
