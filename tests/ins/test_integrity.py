@@ -374,6 +374,23 @@ def test_the_clip_log_gives_each_step_the_share_of_its_samples_saturated():
     assert log.share(1.5, 1.7) == 0.0
 
 
+def test_the_clip_log_stays_bounded_while_the_foot_stands_an_hour_and_still_counts():
+    """An hour at 200 Hz without a step (standing at a door): the log keeps at most
+    about two horizons of samples, and the step that ends the wait still counts every
+    sample since the last step (one in ten flagged: a share of 0.1)."""
+    from firenav_plugins.estimators.zupt_ins.clipping import ClipLog
+
+    log = ClipLog(horizon=10.0)
+    rate, block = 200.0, 20
+    n = int(3600 * rate)
+    for k in range(0, n, block):
+        i = np.arange(k, k + block)
+        log.add((i + 1) / rate, i % 10 == 0)
+        assert len(log._t) <= 10.0 * rate + 2 * block
+    assert log.share(0.0, n / rate) == pytest.approx(0.1)
+    log.add(np.array([n / rate + 0.005]), np.array([True]))
+    assert log.share(n / rate, n / rate + 0.01) == 1.0      # the aggregate was consumed
+
 def test_a_step_with_many_saturated_samples_counts_its_whole_length_as_error():
     """A saturated sample reads less than the foot did, by an amount unknown: a step
     with more than max_clipped (15 %) of its samples saturated is lost, a variance of
