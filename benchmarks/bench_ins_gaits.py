@@ -65,7 +65,7 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 from bench_ins_real_data import (  # noqa: E402
     AS_IT_WAS, MAIN, PREVIOUS, WALK_TUNING, data_dir, eval_trial, fit_count, integrity_errors,
-    integrity_row, run, split)
+    integrity_row, run, split, step_poses)
 from firenav_framework.evaluation.metrics import integrity_figures  # noqa: E402
 from firenav_framework.simulator import simulate  # noqa: E402
 from firenav_framework.yaml_locations import ConfigError  # noqa: E402
@@ -74,7 +74,6 @@ from firenav_framework.sources.readers.foot_imu_datasets import (  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import BlockResult, InsEngine, ZuptInsParams  # noqa: E402
 from firenav_plugins.estimators.zupt_ins import eskf  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.clipping import ClipLog  # noqa: E402
-from firenav_plugins.estimators.zupt_ins.steps import StepTracker  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.metrics import (  # noqa: E402
     path_length, shape_error_per_distance, stride_errors)
 
@@ -324,16 +323,9 @@ def sim_poses(params: ZuptInsParams, rec: Recording, own_cov_only: bool = False)
     rate = 1.0 / float(np.median(np.diff(rec.t)))
     eng = InsEngine(params.detector_config(rate), params.filter_config(rate))
     res = BlockResult.concat([eng.process(rec.t, rec.accel, rec.gyro), eng.finish()])
-    errors = params.odometry.errors()
-    tracker = StepTracker(params.gait.thresholds(), errors)
-    unc = params.integrity.uncertainty(errors)
     clips = ClipLog()
     clips.add(rec.t, rec.saturated)
-    steps = [tracker.step(ev) for ev in res.events]
-    covs = [st.cov_abs if own_cov_only else unc.step(st, clips.share(st.t_start, st.t))
-            for st in steps]
-    return (np.array([st.t for st in steps]), np.array([st.position for st in steps]),
-            np.array(covs))
+    return step_poses(params, res, own_cov_only, clips)
 
 
 def sim_integrity(params: ZuptInsParams, rec: Recording, own_cov_only: bool = False,

@@ -61,6 +61,7 @@ from firenav_plugins.estimators.zupt_ins.metrics import (  # noqa: E402
     path_length, pyshoe_armse, rigid_fit_2d, shape_error_per_distance, stride_errors)
 from firenav_plugins.estimators.zupt_ins.retro import correct_positions  # noqa: E402
 from firenav_plugins.estimators.zupt_ins.steps import StepTracker  # noqa: E402
+from firenav_plugins.estimators.zupt_ins.clipping import ClipLog  # noqa: E402
 
 FLU = np.array([1.0, -1.0, -1.0])     # the datasets' z-down MicroStrain -> FLU
 RATE = 200.0
@@ -356,16 +357,19 @@ def fit_count(truth: np.ndarray) -> int:
     return int(np.searchsorted(walked, FIT_DISTANCE)) + 1
 
 
-def step_poses(params: ZuptInsParams, res: BlockResult, own_cov_only: bool = False
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def step_poses(params: ZuptInsParams, res: BlockResult, own_cov_only: bool = False,
+               clips: ClipLog | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t (K,), position (K, 3), covariance (K, 4, 4)) of the plugin's ``pose`` output
-    (INS frame) from the engine's events: its StepTracker and PoseUncertainty; with
+    (INS frame) from the engine's events: its StepTracker and PoseUncertainty, each step
+    told its share of saturated samples from ``clips`` (None: none saturated); with
     ``own_cov_only`` the filter's covariance alone (what the poses carried before)."""
     errors = params.odometry.errors()
     tracker = StepTracker(params.gait.thresholds(), errors)
     unc = params.integrity.uncertainty(errors)
     steps = [tracker.step(ev) for ev in res.events]
-    covs = [st.cov_abs if own_cov_only else unc.step(st) for st in steps]
+    covs = [st.cov_abs if own_cov_only
+            else unc.step(st, clips.share(st.t_start, st.t) if clips else 0.0)
+            for st in steps]
     return (np.array([st.t for st in steps]), np.array([st.position for st in steps]),
             np.array(covs))
 
