@@ -1,8 +1,9 @@
 """pipelines/incident.yaml end to end on a short copy of the incident (tests/team/
-incident_short.yaml, tuning seed 101, 200 particles): every method runs, team_fusion publishes a pose
-for every firefighter, beats INS alone on the pooled error, keeps the floor, and says
-when an input is left out; the commander's outputs (the live view and MAVLink out to a
-ground station) carry the fused team."""
+incident_short.yaml, tuning seed 101, 200 particles): every method runs, team_fusion
+publishes a pose for every firefighter, beats INS alone on the pooled error, keeps the
+floor, and says when an input is left out; the particle filter is not trusted while
+off; the commander's outputs (the live view and MAVLink out to a ground station) carry
+the fused team."""
 from __future__ import annotations
 
 import json
@@ -13,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firenav_framework.evaluation.metrics import pooled_metrics, track_errors
+from firenav_framework.evaluation.metrics import metrics_of, pooled_metrics, track_errors
 from firenav_framework.pipeline import load_pipeline
 from firenav_framework.runner import run_pipeline
 from firenav_framework.transports.mavlink_link import mavutil
@@ -120,6 +121,19 @@ def test_team_fusion_beats_ins_alone_and_keeps_the_floor(run):
     for tr in run.tracks["team.pose"].values():
         assert np.all(np.isfinite(tr.protection_radius))
         assert not np.any(tr.trusted & (tr.protection_radius > 3.0))
+
+
+def test_the_incidents_particle_filter_is_never_confidently_wrong(run):
+    # The PF of pipelines/incident.yaml runs with the field rules (walls that may be wrong,
+    # look-alike jumps and plan contradictions untrusted, a drift spread for the incident's
+    # uncalibrated INS). Without them (fe62e04's settings) on this run it was trusted while
+    # more than 3 m off 23 % (ff1) and 24 % (ff2) of the time, and its pooled RMSE only 17 %
+    # under INS alone's; the issue's goals are <= 2 % in every track and >= 30 % better.
+    levels = np.array([f.z for f in run.building.floors])
+    for agent, track in run.tracks["pf.pose"].items():
+        m = metrics_of(track_errors(track, run.truth[agent], levels))
+        assert m.trusted_off_fraction <= 0.02, (agent, m.trusted_off_fraction)
+    assert _pooled(run, "pf.pose").rmse_m <= 0.7 * _pooled(run, "dr.pose").rmse_m
 
 
 def test_the_ground_station_gets_every_fused_pose_of_every_firefighter(run):
