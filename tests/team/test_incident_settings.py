@@ -3,7 +3,8 @@ errors shaped as the methods' on the incident's tuning seeds (docs/team-fusion.m
 inputs that dead-reckon the same strides as INS alone (ORCA + UWB taking on the INS
 drift away from the anchor, with a covariance that holds it; the particle filter) must
 not out-vote the tag-aided EKF, and the fused pose is trusted where the EKF and a
-second input bound it, never while more than the alert limit off."""
+second input bound it, never while more than the alert limit off. Only the streams the
+pipeline gives team_fusion are fed (INS alone's pose is not among them)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -18,10 +19,11 @@ from firenav_plugins.estimators.team_fusion import TeamFusionEstimator
 PIPELINE = Path(__file__).resolve().parents[2] / "pipelines" / "incident.yaml"
 
 
-def _team_params() -> dict:
+def _team() -> tuple[dict, set[str]]:
+    """team_fusion's parameters in the pipeline and the streams it is given."""
     spec = yaml.safe_load(PIPELINE.read_text())
     team = next(e for e in spec["estimators"] if e["plugin"] == "team_fusion")
-    return {k: v for k, v in team.items() if k not in ("id", "plugin", "input")}
+    return {k: v for k, v in team.items() if k not in ("id", "plugin", "input")}, set(team["input"])
 
 
 def _pose(t: float, xy: np.ndarray, sigma: float) -> PoseEstimate:
@@ -77,7 +79,8 @@ def _fused(seed: int) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
     poses at the strides published (a corrected step: its last), the truth and the EKF
     there."""
     msgs, truth, ekf = _walk(seed)
-    rec = Session(TeamFusionEstimator, _team_params()).run(msgs)
+    params, streams = _team()
+    rec = Session(TeamFusionEstimator, params).run([m for m in msgs if m[0] in streams])
     last = {round(p.t, 6): p for p in rec.on("pose")}
     keep = [k for k in range(len(truth)) if round(float(k + 1), 6) in last]
     assert len(keep) >= len(truth) - 2
