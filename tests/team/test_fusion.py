@@ -239,6 +239,24 @@ def test_floor_by_vote_of_the_fused_inputs():
     assert {p.floor for p in poses} == {1}
 
 
+def test_an_input_that_only_votes_gives_its_floor_and_nothing_else():
+    # a (floor 1) and b (floor 2) at the truth tie on the floor, which then stays at 1 (the
+    # lower, first); w (position: false), 6 m north with a tighter covariance than both,
+    # votes floor 2: the floor becomes 2 and the pose stays a and b's, unmoved by w
+    def inputs(t, x, with_w):
+        msgs = [("a.pose", _pose(t, x, 0.0, 0.5, floor=1)),
+                ("b.pose", _pose(t, x, 0.0, 0.5, floor=2))]
+        return msgs + ([("w.pose", _pose(t, x, 6.0, 0.3, floor=2))] if with_w else [])
+    params = {"quality": {"enabled": False}, "inputs": {"w.pose": {"position": False}}}
+    without, _, _ = _run(lambda t, x: inputs(t, x, False), params)
+    voting, _, _ = _run(lambda t, x: inputs(t, x, True), params)
+    assert {p.floor for p in without} == {1}
+    assert {p.floor for p in voting[2:]} == {2}
+    for p, q in zip(without[1:], voting[2:]):
+        np.testing.assert_allclose(p.position, q.position, atol=1e-9)
+        np.testing.assert_allclose(p.cov, q.cov, atol=1e-9)
+
+
 def test_a_step_is_published_again_when_an_input_that_was_not_waited_for_answers():
     # a skips step 3; with wait_for 0 step 4 is not held for it (it did not answer step
     # 3): step 4 is fused with a's pose of step 2 carried, then again with a's pose of 4

@@ -4,7 +4,7 @@ inputs that dead-reckon the same strides as INS alone (ORCA + UWB taking on the 
 drift away from the anchor, with a covariance that holds it; the particle filter) must
 not out-vote the tag-aided EKF, and the fused pose is trusted where the EKF and a
 second input bound it, never while more than the alert limit off. Only the streams the
-pipeline gives team_fusion are fed (INS alone's pose is not among them)."""
+pipeline gives team_fusion are fed, with its settings (INS alone's pose only votes a floor)."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -29,8 +29,9 @@ and publishes one :class:`PoseEstimate` per odometry step (a step twice when cor
    contradict each other (two inputs that disagree, nothing to arbitrate), the pose is
    their mixture, its protection radius holds every set's 99 % disc, and it is not
    trusted (``inputs_disagree`` diagnostic with the place).
-6. **Floor** by vote of the fused inputs' floors (their stairs evidence), one each, and
-   the barometer's floor; a tie keeps the floor before.
+6. **Floor** by vote of the fused inputs' floors (their stairs evidence), one each, of
+   the inputs that only vote (``inputs.<stream>.position: false``), and the barometer's
+   floor; a tie keeps the floor before.
 7. **Integrity.** ``protection_radius`` from the fused covariance
    (:func:`~firenav_framework.integrity.gaussian_protection_radius`) or the mixture;
    ``trusted`` from :func:`~firenav_framework.integrity.trusted`, and only while at
@@ -190,13 +191,16 @@ class TeamFusionEstimator(Estimator):
             self._fuse(msg.agent, st, msg.t, msg.device)
 
     # ---- fusion --------------------------------------------------------------------
+    def _settings(self, stream: str) -> InputSettings:
+        return self.params.inputs.get(stream, self._default_input)
+
     def _carry(self, st: _Agent, stream: str, pose: PoseEstimate, t: float) -> _Carried | None:
         prop = self.params.propagation
         age = t - pose.t
         if age > prop.max_age:
             return None
         age = max(age, 0.0)
-        settings = self.params.inputs.get(stream, self._default_input)
+        settings = self._settings(stream)
         cov = np.asarray(pose.cov, float) * settings.inflate
         xy = np.asarray(pose.position[:2], float).copy()
         z, heading = float(pose.position[2]), float(pose.heading)
@@ -220,11 +224,13 @@ class TeamFusionEstimator(Estimator):
     def _fuse(self, agent: str, st: _Agent, t: float, device: str, again: bool = False) -> None:
         if t < st.published_t or (t == st.published_t and not again):
             return
-        carried = [c for c in (self._carry(st, s, p, t) for s, p in sorted(st.inputs.items()))
-                   if c is not None]
+        every = [c for c in (self._carry(st, s, p, t) for s, p in sorted(st.inputs.items()))
+                 if c is not None]
+        carried = [c for c in every if self._settings(c.stream).position]
         if not carried:
             self.ctx.count("steps_without_inputs")
             return
+        floor_only = [c for c in every if not self._settings(c.stream).position]
         means = np.array([c.mean for c in carried])
         raw = np.array([c.cov for c in carried])
         for k in range(len(raw)):
@@ -268,7 +274,8 @@ class TeamFusionEstimator(Estimator):
         weights = _member_weights(hyps, len(carried))
         z, var_z = _scalar_ci([c.z for c in carried], [c.var_z for c in carried], weights)
         heading, var_h = _heading_ci(carried, weights)
-        floor = self._vote(st, carried, used, z, t)
+        voters = used | set(range(len(carried), len(carried) + len(floor_only)))
+        floor = self._vote(st, carried + floor_only, voters, z, t)
         st.floor, st.published_t = floor, t
         cov4 = np.zeros((4, 4))
         cov4[:2, :2] = cov

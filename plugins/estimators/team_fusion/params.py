@@ -52,6 +52,10 @@ class InputSettings(Params):
     floor: bool = param(True)
     """the input's floor votes and is checked by the gate (false: an input without floor evidence
     of its own)"""
+    position: bool = param(True)
+    """the input's position, height and heading are fused (false: only its floor votes; for an
+    input every other one integrates already, such as INS alone, which is no independent witness
+    of where the firefighter is but has floor evidence of its own)"""
 
 
 class Support(Params):
