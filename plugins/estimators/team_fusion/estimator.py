@@ -224,13 +224,15 @@ class TeamFusionEstimator(Estimator):
     def _fuse(self, agent: str, st: _Agent, t: float, device: str, again: bool = False) -> None:
         if t < st.published_t or (t == st.published_t and not again):
             return
-        every = [c for c in (self._carry(st, s, p, t) for s, p in sorted(st.inputs.items()))
-                 if c is not None]
-        carried = [c for c in every if self._settings(c.stream).position]
+        carried: list[_Carried] = []        # fused
+        floor_only: list[_Carried] = []     # only their floor votes
+        for s, p in sorted(st.inputs.items()):
+            c = self._carry(st, s, p, t)
+            if c is not None:
+                (carried if self._settings(s).position else floor_only).append(c)
         if not carried:
             self.ctx.count("steps_without_inputs")
             return
-        floor_only = [c for c in every if not self._settings(c.stream).position]
         means = np.array([c.mean for c in carried])
         raw = np.array([c.cov for c in carried])
         for k in range(len(raw)):
@@ -274,8 +276,8 @@ class TeamFusionEstimator(Estimator):
         weights = _member_weights(hyps, len(carried))
         z, var_z = _scalar_ci([c.z for c in carried], [c.var_z for c in carried], weights)
         heading, var_h = _heading_ci(carried, weights)
-        voters = used | set(range(len(carried), len(carried) + len(floor_only)))
-        floor = self._vote(st, carried + floor_only, voters, z, t)
+        floor = self._vote(st, [carried[i].floor for i in sorted(used)] +
+                           [c.floor for c in floor_only], z, t)
         st.floor, st.published_t = floor, t
         cov4 = np.zeros((4, 4))
         cov4[:2, :2] = cov
@@ -303,17 +305,16 @@ class TeamFusionEstimator(Estimator):
             if others is not None:
                 st.quality.update(c.stream, t, means[k], raw[k], *others)
 
-    def _vote(self, st: _Agent, carried: list[_Carried], voters: set[int], z: float,
-              t: float) -> int | None:
-        """One vote per input of the consistent set(s) (``voters``: indices into
-        ``carried``) that names a floor, the barometer's floor with its weight; a tie
-        keeps the floor before. Votes are counted, not weighted by the fusion weights:
+    def _vote(self, st: _Agent, floors: list[int | None], z: float, t: float) -> int | None:
+        """One vote per voting input that names a floor (``floors``: those of the
+        consistent set(s) and of the floor-only inputs), the barometer's floor with its
+        weight; a tie keeps the floor before. Votes are counted, not weighted by the fusion weights:
         inputs that share the INS height agree with each other whatever their
         covariances say."""
         votes: dict[int, float] = {}
-        for i, c in enumerate(carried):
-            if i in voters and c.floor is not None:
-                votes[c.floor] = votes.get(c.floor, 0.0) + 1.0
+        for f in floors:
+            if f is not None:
+                votes[f] = votes.get(f, 0.0) + 1.0
         baro = st.baro
         if baro is not None and t - baro.t <= self.params.floor.barometer_max_age \
                 and self.ctx.has_building:
