@@ -308,9 +308,9 @@ class TeamFusionEstimator(Estimator):
     def _vote(self, st: _Agent, floors: list[int | None], z: float, t: float) -> int | None:
         """One vote per voting input that names a floor (``floors``: those of the
         consistent set(s) and of the floor-only inputs), the barometer's floor with its
-        weight; a tie keeps the floor before. Votes are counted, not weighted by the fusion weights:
-        inputs that share the INS height agree with each other whatever their
-        covariances say."""
+        weight; a tie keeps the floor before. Votes are counted, not weighted by the
+        fusion weights: inputs that share the INS height agree with each other whatever
+        their covariances say."""
         votes: dict[int, float] = {}
         for f in floors:
             if f is not None:
