@@ -163,3 +163,46 @@ def test_ranges_from_an_anchor_on_another_floor_are_counted_and_not_used():
         else:
             assert counts.get("ranges_other_floor") == 1 and "ranges_used" not in counts
             np.testing.assert_allclose(end[:2], [6.0, 0.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("walls", [FAR, FAR + [[[8.0, -5.0], [8.0, 5.0]]]], ids=["open", "wall"])
+def test_ranges_too_short_for_the_position_move_it_onto_their_circle(walls):
+    """Issue 15: the track starts 10 m too far from the anchor with a tight covariance;
+    the true ranges are 10 m shorter than its prediction, far outside the gate, and (in
+    the second case) cross a wall of the plan from the wrong position. A range can only
+    be lengthened by walls, so two of them in a row say the position is wrong: the first
+    is counted, the second moves the position onto its circle (the estimator widens the
+    pose by the move) and warns; the next true range is used as usual."""
+    w = walker(walls, start=(12.0, 0.0))
+    w.step(0.5, 0.0)                            # believed 12.5, truly 2.5
+    w.range("uwb_start", true_range(2.5))
+    stuck = w.step(0.5, 0.0)
+    assert stuck[0] == pytest.approx(13.0) and w.counts()["ranges_short"] == 1
+    w.range("uwb_start", true_range(3.0))
+    moved = w.step(0.5, 0.0)
+    np.testing.assert_allclose(moved[:2], [3.5, 0.0], atol=1e-9)
+    counts = w.counts()
+    assert counts["anchor_relocation"] == 1 and "anchor_range" not in counts
+    pose = w.rec.on("pose")[-1]
+    assert np.linalg.eigvalsh(np.asarray(pose.cov)[:2, :2]).min() > 9.5 ** 2   # the 10 m move
+    assert [d.code for d in w.constraint_records[0].on("diagnostics")
+            if d.level == "warning"] == ["anchor_relocation"]
+    w.range("uwb_start", true_range(3.5) + 0.05)
+    w.step(0.5, 0.0)
+    assert w.counts()["ranges_used"] == 2
+
+
+
+@pytest.mark.parametrize("short, params", [(10.0, {"relocate_after": 0}), (1.5, {})],
+                         ids=["relocation off", "within the margin"])
+def test_short_ranges_are_gated_when_relocation_is_off_or_within_the_margin(short, params):
+    """Ranges far beyond the gate of a tight track, shorter than predicted: with relocation
+    off, or short by less than what the noise of a range through walls reaches
+    (relocate_margin 2 m), they are dropped as gated and the track keeps its course."""
+    w = walker(start=(12.0, 0.0), **params)
+    for k in range(4):
+        w.step(0.5, 0.0)
+        w.range("uwb_start", true_range(12.5 + 0.5 * k) - short)
+    end = w.step(0.5, 0.0)
+    assert end[0] == pytest.approx(14.5)
+    assert w.counts()["ranges_gated"] == 4 and "anchor_relocation" not in w.counts()

@@ -14,7 +14,12 @@ and the estimated error is fed back at once as a translation in the update matri
 (eq. 8), so it moves this and every later step. Ranges through a wall of the floor plan
 (from the estimated position), from an anchor on another floor (through a slab) or flagged
 NLOS by the sensor are not used: their delay only lengthens them; ranges farther off than
-``gate`` sigmas are counted and dropped;
+``gate`` sigmas are counted and dropped, except those shorter than the prediction by more than ``relocate_margin`` too: walls
+and delays lengthen a range, so ``relocate_after`` of them in a row say the position itself
+is wrong (a track that drifted metres while this filter's covariance, which knows nothing
+of the heading drift, stayed tight) and move it onto the last one's circle as a jump,
+which the estimator widens its covariance by (warning ``anchor_relocation``), through a
+wall of the plan or not;
 within ``min_distance`` of the anchor (horizontally) a range says little about
 direction and is skipped; a range more than ``max_age`` older than the step it falls in
 is stale.
@@ -47,6 +52,7 @@ class _Agent:
     pending: deque = field(default_factory=deque)  # (t, anchor id, range, sigma)
     cov: np.ndarray | None = None                  # (2, 2) position error covariance [m^2]
     t: float | None = None                         # time of the last step [s]
+    short: int = 0                                 # ranges in a row too short for the position
 
 
 class AnchorRangeConstraint(AnchorRangeInput):
@@ -75,6 +81,14 @@ class AnchorRangeConstraint(AnchorRangeInput):
         by a bias the range's sigma does not state)"""
         max_age: float = param(2.0, unit="s", gt=0)
         """ranges older than this when their step comes are dropped"""
+        relocate_after: int = param(2, ge=0)
+        """this many ranges in a row shorter than the predicted distance by more than ``gate``
+        sigmas and ``relocate_margin`` (walls and NLOS lengthen a range on average, so the
+        position is wrong) move the position onto the last one's circle, as a jump the
+        estimator widens its covariance by; 0: such ranges are dropped as gated"""
+        relocate_margin: float = param(2.0, unit="m", ge=0)
+        """how much shorter than predicted a range must be to count towards a relocation: more
+        than the noise of a range through walls (which the sensor cannot flag)"""
 
     def __init__(self, params: Params, ctx):
         super().__init__(params, ctx)
@@ -121,6 +135,7 @@ class AnchorRangeConstraint(AnchorRangeInput):
         floor_idx = self._building.floor_of_z(step.prev[2])
         tag_z = self._building.floors[floor_idx].z + p.tag_height
         shift = np.zeros(2)
+        relocated = False
         info = np.zeros((2, 2))           # what the used ranges know of the position
         for t_r, anchor_id, r, sigma in due:
             if step.t - t_r > p.max_age:
@@ -137,17 +152,41 @@ class AnchorRangeConstraint(AnchorRangeInput):
             if horiz < p.min_distance:
                 self.ctx.count("ranges_too_close")
                 continue
-            if not p.through_walls and self._walls.at_z(step.prev[2]).crosses_one(pos, anchor):
-                self.ctx.count("ranges_through_walls")
-                continue
-            predicted = math.sqrt(horiz * horiz + (tag_z - anchor[2]) ** 2)
+            dz = tag_z - anchor[2]
+            predicted = math.sqrt(horiz * horiz + dz * dz)
             h = d / predicted
             sigma = math.hypot(sigma, p.model_sigma)
             s = float(h @ me.cov @ h) + sigma * sigma
             innovation = r - predicted
-            if abs(innovation) > p.gate * math.sqrt(s):
+            if p.relocate_after and -innovation > max(p.gate * math.sqrt(s), p.relocate_margin):
+                me.short += 1
+                if me.short < p.relocate_after:
+                    self.ctx.count("ranges_short")
+                    continue
+                # onto the range's circle, along the bearing the estimate has from the anchor
+                rh = math.sqrt(max(r * r - dz * dz, 0.0))
+                moved = anchor[:2] + d * (rh / horiz) - pos
+                shift = shift + moved
+                me.cov = me.cov + np.eye(2) * float(moved @ moved)
+                relocated = True
+                self.ctx.count("ranges_relocated")
+                self.ctx.diagnose(t_r, "warning", "anchor_relocation",
+                                  f"UWB ranges to {anchor_id} say {step.agent} is within "
+                                  f"{r:.1f} m of it, not {predicted:.1f} m: moved "
+                                  f"{math.hypot(*moved):.1f} m, the pose widened", agent=step.agent)
+                pos, d = pos + moved, d + moved
+                horiz = rh
+                predicted = r
+                h = d / predicted
+                s = float(h @ me.cov @ h) + sigma * sigma
+                innovation = 0.0
+            elif not p.through_walls and self._walls.at_z(step.prev[2]).crosses_one(pos, anchor):
+                self.ctx.count("ranges_through_walls")
+                continue
+            elif abs(innovation) > p.gate * math.sqrt(s):
                 self.ctx.count("ranges_gated")
                 continue
+            me.short = 0
             k = me.cov @ h / s
             shift = shift + k * innovation
             me.cov = me.cov - np.outer(k, h @ me.cov)
@@ -155,9 +194,11 @@ class AnchorRangeConstraint(AnchorRangeInput):
             self.ctx.count("ranges_used")
         if not shift.any():
             return None
+        event = "anchor_relocation" if relocated else "anchor_range"
         return correction(step, step.proposed[:2] + shift, update=Rigid2D.translation(shift),
-                          event="anchor_range", cov=_seen(me.cov, info, p.model_sigma ** 2),
-                          independent=False, explained=True)
+                          jump=relocated, event=event,
+                          cov=_seen(me.cov, info, p.model_sigma ** 2), independent=False,
+                          explained=True)
 
 
 def _seen(cov: np.ndarray, info: np.ndarray, floor: float) -> np.ndarray:
