@@ -206,3 +206,33 @@ def test_short_ranges_are_gated_when_relocation_is_off_or_within_the_margin(shor
     end = w.step(0.5, 0.0)
     assert end[0] == pytest.approx(14.5)
     assert w.counts()["ranges_gated"] == 4 and "anchor_relocation" not in w.counts()
+
+
+def test_a_range_that_puts_the_walker_beside_the_anchor_pulls_the_track_to_it():
+    """Issue 15: standing 0.3 m from the anchor (range 0.5 m, the tag 0.4 m above it),
+    the track believed 0.9 m from it on the other side, inside min_distance, where the
+    bearing is unknown. Each range says "within 0.55 m of the anchor" (one sigma long):
+    a fix at the anchor that brings the filter's variance down to that disc and no lower,
+    range after range; the track ends within the disc, where before it stayed 1.2 m off."""
+    w = walker(start=(0.9, 0.0))
+    r = math.hypot(0.3, TAG - ANCHOR.position[2])
+    for _ in range(20):
+        w.range("uwb_start", r)
+        end = w.step(0.0, 0.0)
+    disc = (r + math.hypot(0.1, 0.15)) ** 2 - (TAG - ANCHOR.position[2]) ** 2
+    assert np.hypot(*end[:2]) < 0.1 and np.hypot(end[0] + 0.3, end[1]) < math.sqrt(disc)
+    assert w.counts()["ranges_near"] == 20 and "ranges_too_close" not in w.counts()
+    me = w.constraints[0][0].agents["ff1"]
+    assert np.linalg.eigvalsh(me.cov).min() == pytest.approx(disc)
+
+
+def test_ranges_out_of_time_order_are_counted_and_taken_in_order():
+    w = walker()
+    w.step(1.0, 0.0)                                      # at x = 3 (t = 1)
+    w.range("uwb_start", true_range(3.9), dt=0.9)
+    w.range("uwb_start", true_range(3.2), dt=0.2)        # the earlier one, late
+    me = w.constraints[0][0].agents["ff1"]
+    assert [round(e[0], 1) for e in me.pending] == [1.2, 1.9]
+    end = w.step(1.0, 0.0)
+    assert w.counts()["ranges_out_of_order"] == 1 and w.counts()["ranges_used"] == 2
+    np.testing.assert_allclose(end[:2], [4.0, 0.0], atol=1e-9)

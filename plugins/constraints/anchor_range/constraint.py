@@ -20,12 +20,16 @@ is wrong (a track that drifted metres while this filter's covariance, which know
 of the heading drift, stayed tight) and move it onto the last one's circle as a jump,
 which the estimator widens its covariance by (warning ``anchor_relocation``), through a
 wall of the plan or not;
-within ``min_distance`` of the anchor (horizontally) a range says little about
-direction and is skipped; a range more than ``max_age`` older than the step it falls in
+a range that itself puts the walker within ``min_distance`` of the anchor (horizontally,
+one sigma long) is a fix at the anchor, the disc it allows as its variance (the bearing is
+unknown), which brings the filter no lower than that disc; otherwise within
+``min_distance`` of the anchor (from the estimate) a range says little about direction
+and is skipped; a range more than ``max_age`` older than the step it falls in
 is stale.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -71,7 +75,8 @@ class AnchorRangeConstraint(AnchorRangeInput):
         gate: float = param(3.0, gt=0)
         """ranges farther than this many sigmas from the prediction are dropped"""
         min_distance: float = param(1.0, unit="m", ge=0)
-        """horizontal distance to the anchor below which a range is not used"""
+        """horizontal distance to the anchor below which a range is a fix at the anchor (when the
+        range says so) or not used (when only the estimate is that close)"""
         use_nlos: bool = param(False)
         """use ranges the sensor flags NLOS (with their sigma)"""
         through_walls: bool = param(False)
@@ -116,7 +121,12 @@ class AnchorRangeConstraint(AnchorRangeInput):
         if len(me.pending) >= MAX_PENDING:
             me.pending.popleft()            # no step for a long time (standing still)
             self.ctx.count("ranges_stale")
-        me.pending.append((msg.t, anchor, msg.range_m, msg.sigma_m))
+        entry = (msg.t, anchor, msg.range_m, msg.sigma_m)
+        if me.pending and msg.t < me.pending[-1][0]:
+            self.ctx.count("ranges_out_of_order")      # waits in time order all the same
+            me.pending.insert(bisect.bisect_right(me.pending, msg.t, key=lambda e: e[0]), entry)
+        else:
+            me.pending.append(entry)
 
     def correct(self, step: OdometryStep) -> StepCorrection | None:
         p = self.params
@@ -149,13 +159,22 @@ class AnchorRangeConstraint(AnchorRangeInput):
             pos = step.prev[:2] + f * move + shift
             d = pos - anchor[:2]
             horiz = math.hypot(d[0], d[1])
+            sigma = math.hypot(sigma, p.model_sigma)
+            dz = tag_z - anchor[2]
+            # the squared horizontal distance from the anchor the range allows (1 sigma long)
+            disc = max((r + sigma) ** 2 - dz * dz, sigma * sigma)
+            if disc < p.min_distance ** 2:
+                moved, cov = _near_fix(me.cov, -d, disc, p.gate)
+                if moved is not None:
+                    shift, me.cov, me.short = shift + moved, cov, 0
+                    info += np.eye(2) / disc
+                    self.ctx.count("ranges_near")
+                    continue
             if horiz < p.min_distance:
                 self.ctx.count("ranges_too_close")
                 continue
-            dz = tag_z - anchor[2]
             predicted = math.sqrt(horiz * horiz + dz * dz)
             h = d / predicted
-            sigma = math.hypot(sigma, p.model_sigma)
             s = float(h @ me.cov @ h) + sigma * sigma
             innovation = r - predicted
             if p.relocate_after and -innovation > max(p.gate * math.sqrt(s), p.relocate_margin):
@@ -199,6 +218,22 @@ class AnchorRangeConstraint(AnchorRangeInput):
                           jump=relocated, event=event,
                           cov=_seen(me.cov, info, p.model_sigma ** 2), independent=False,
                           explained=True)
+
+
+def _near_fix(cov: np.ndarray, offset: np.ndarray, disc: float, gate: float
+              ) -> tuple[np.ndarray | None, np.ndarray]:
+    """A range that puts the walker within ``sqrt(disc)`` [m] of the anchor, seen as a fix
+    at the anchor of variance ``disc`` [m^2] on each axis (the bearing is unknown): the
+    move (2,) [m] toward the anchor, ``offset`` (2,) [m] away from the estimate, and the
+    filter's covariance after it, ``cov`` (2, 2) [m^2] brought down no lower than ``disc``
+    (the same disc, range after range, is no new evidence); (None, ``cov``) when the
+    anchor is beyond ``gate`` sigmas."""
+    s = cov + np.eye(2) * disc
+    if float(offset @ np.linalg.solve(s, offset)) > gate * gate:
+        return None, cov
+    k = cov @ np.linalg.inv(s)
+    values, axes = np.linalg.eigh(cov - k @ cov)
+    return k @ offset, axes_covariance(axes, np.maximum(values, disc))
 
 
 def _seen(cov: np.ndarray, info: np.ndarray, floor: float) -> np.ndarray:
