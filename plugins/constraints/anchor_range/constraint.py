@@ -14,13 +14,12 @@ and the estimated error is fed back at once as a translation in the update matri
 (eq. 8), so it moves this and every later step. Ranges through a wall of the floor plan
 (from the estimated position), from an anchor on another floor (through a slab) or flagged
 NLOS by the sensor are not used: their delay only lengthens them; ranges farther off than
-``gate`` sigmas are counted and dropped, except those shorter than the prediction by more than ``relocate_margin`` too: walls
-and delays lengthen a range, so ``relocate_after`` of them in a row say the position itself
-is wrong (a track that drifted metres while this filter's covariance, which knows nothing
-of the heading drift, stayed tight) and move it onto the last one's circle as a jump,
-which the estimator widens its covariance by (warning ``anchor_relocation``), through a
-wall of the plan or not;
-a range that itself puts the walker within ``min_distance`` of the anchor (horizontally,
+``gate`` sigmas are counted and dropped, except those shorter than the prediction by more
+than ``relocate_margin`` too: walls and delays lengthen a range, so ``relocate_after`` of
+them in a row say the position itself is wrong (a track that drifted metres while this
+filter's covariance, which knows nothing of the heading drift, stayed tight) and move it
+onto the last one's circle as a jump, which the estimator widens its covariance by
+(warning ``anchor_relocation``), through a wall of the plan or not; a range that itself puts the walker within ``min_distance`` of the anchor (horizontally,
 one sigma long) is a fix at the anchor, the disc it allows as its variance (the bearing is
 unknown), which brings the filter no lower than that disc; otherwise within
 ``min_distance`` of the anchor (from the estimate) a range says little about direction
@@ -193,10 +192,7 @@ class AnchorRangeConstraint(AnchorRangeInput):
                                   f"UWB ranges to {anchor_id} say {step.agent} is within "
                                   f"{r:.1f} m of it, not {predicted:.1f} m: moved "
                                   f"{math.hypot(*moved):.1f} m, the pose widened", agent=step.agent)
-                pos, d = pos + moved, d + moved
-                horiz = rh
-                predicted = r
-                h = d / predicted
+                h = (d + moved) / r          # on the circle now: the range only narrows it
                 s = float(h @ me.cov @ h) + sigma * sigma
                 innovation = 0.0
             elif not p.through_walls and self._walls.at_z(step.prev[2]).crosses_one(pos, anchor):
@@ -228,10 +224,10 @@ def _near_fix(cov: np.ndarray, offset: np.ndarray, disc: float, gate: float
     filter's covariance after it, ``cov`` (2, 2) [m^2] brought down no lower than ``disc``
     (the same disc, range after range, is no new evidence); (None, ``cov``) when the
     anchor is beyond ``gate`` sigmas."""
-    s = cov + np.eye(2) * disc
-    if float(offset @ np.linalg.solve(s, offset)) > gate * gate:
+    s_inv = np.linalg.inv(cov + np.eye(2) * disc)
+    if float(offset @ s_inv @ offset) > gate * gate:
         return None, cov
-    k = cov @ np.linalg.inv(s)
+    k = cov @ s_inv
     values, axes = np.linalg.eigh(cov - k @ cov)
     return k @ offset, axes_covariance(axes, np.maximum(values, disc))
 
