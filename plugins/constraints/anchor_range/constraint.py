@@ -6,25 +6,25 @@ anchor, the position is corrected". The range says how far the firefighter is fr
 anchor, which no wall constrains along a corridor: there the INS's stride-length error
 piles up unseen (strides measured a few per cent short put the path metres behind).
 
-This rule is a small Kalman filter on the error of the corrected position (2-D, ENU):
-its covariance grows with every step (``step_sigma`` of the step length, each axis),
-every range taken between two steps is an observation of it, at the position
-interpolated along the step to the range's time (tag ``tag_height`` above the floor),
-and the estimated error is fed back at once as a translation in the update matrix
-(eq. 8), so it moves this and every later step. Ranges through a wall of the floor plan
-(from the estimated position), from an anchor on another floor (through a slab) or flagged
-NLOS by the sensor are not used: their delay only lengthens them; ranges farther off than
-``gate`` sigmas are counted and dropped, except those shorter than the prediction by more
-than ``relocate_margin`` too: walls and delays lengthen a range, so ``relocate_after`` of
-them in a row say the position itself is wrong (a track that drifted metres while this
-filter's covariance, which knows nothing of the heading drift, stayed tight) and move it
-onto the last one's circle as a jump, which the estimator widens its covariance by
-(warning ``anchor_relocation``), through a wall of the plan or not; a range that itself puts the walker within ``min_distance`` of the anchor (horizontally,
-one sigma long) is a fix at the anchor, the disc it allows as its variance (the bearing is
-unknown), which brings the filter no lower than that disc; otherwise within
-``min_distance`` of the anchor (from the estimate) a range says little about direction
-and is skipped; a range more than ``max_age`` older than the step it falls in
-is stale.
+This rule is a small Kalman filter on the error of the corrected position (2-D, ENU): its
+covariance grows with every step (``step_sigma`` of the step length, each axis), every
+range taken between two steps is an observation of it, at the position interpolated along
+the step to the range's time (tag ``tag_height`` above the floor), and the estimated error
+is fed back at once as a translation in the update matrix (eq. 8), so it moves this and
+every later step. Ranges through a wall of the floor plan (from the estimated position),
+from an anchor on another floor (through a slab) or flagged NLOS by the sensor are not
+used: their delay only lengthens them; ranges farther off than ``gate`` sigmas are counted
+and dropped, except those shorter than the prediction by more than ``relocate_margin`` too:
+walls and delays lengthen a range, so ``relocate_after`` of them in a row say the position
+itself is wrong (a track that drifted metres while this filter's covariance, which knows
+nothing of the heading drift, stayed tight) and move it onto the last one's circle as a
+jump, which the estimator widens its covariance by (warning ``anchor_relocation``), through
+a wall of the plan or not; a range that itself puts the walker within ``min_distance`` of
+the anchor (horizontally, one sigma long) is a fix at the anchor, the disc it allows as its
+variance (the bearing is unknown), which brings the filter no lower than that disc;
+otherwise within ``min_distance`` of the anchor (from the estimate) a range says little
+about direction and is skipped; a range more than ``max_age`` older than the step it falls
+in is stale.
 """
 from __future__ import annotations
 
@@ -191,7 +191,8 @@ class AnchorRangeConstraint(AnchorRangeInput):
                 self.ctx.diagnose(t_r, "warning", "anchor_relocation",
                                   f"UWB ranges to {anchor_id} say {step.agent} is within "
                                   f"{r:.1f} m of it, not {predicted:.1f} m: moved "
-                                  f"{math.hypot(*moved):.1f} m, the pose widened", agent=step.agent)
+                                  f"{math.hypot(*moved):.1f} m, the pose widened",
+                                  agent=step.agent)
                 h = (d + moved) / r          # on the circle now: the range only narrows it
                 s = float(h @ me.cov @ h) + sigma * sigma
                 innovation = 0.0
